@@ -1,0 +1,188 @@
+//! SE(2) poses.
+
+use crate::angle::wrap_angle;
+use nalgebra::{Isometry2, Vector2};
+use serde::{Deserialize, Serialize};
+use std::ops::Mul;
+
+/// A point in a planar frame, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Point2 {
+    /// First coordinate (forward in a robot frame), metres.
+    pub x: f64,
+    /// Second coordinate (left in a robot frame), metres.
+    pub y: f64,
+}
+
+impl Point2 {
+    /// A point from its coordinates.
+    pub const fn new(x: f64, y: f64) -> Self {
+        Self { x, y }
+    }
+
+    /// Distance from the frame origin.
+    pub fn norm(self) -> f64 {
+        self.x.hypot(self.y)
+    }
+
+    /// Bearing from the frame origin, radians counter-clockwise from +x.
+    pub fn bearing(self) -> f64 {
+        self.y.atan2(self.x)
+    }
+
+    /// The point at `range` along `bearing_rad` from the origin.
+    pub fn from_polar(range: f64, bearing_rad: f64) -> Self {
+        Self::new(range * bearing_rad.cos(), range * bearing_rad.sin())
+    }
+}
+
+/// A rigid planar transform `a_from_b`: maps coordinates in frame `b` into
+/// frame `a`. As a robot pose, `world_from_robot` holds the robot's position
+/// and heading (counter-clockwise from world +x) in the world.
+///
+/// The heading is kept wrapped into `(-π, π]`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose2 {
+    /// Translation x, metres.
+    pub x: f64,
+    /// Translation y, metres.
+    pub y: f64,
+    /// Rotation, radians, in `(-π, π]`.
+    pub theta: f64,
+}
+
+impl Pose2 {
+    /// The identity transform.
+    pub const IDENTITY: Pose2 = Pose2 {
+        x: 0.0,
+        y: 0.0,
+        theta: 0.0,
+    };
+
+    /// A pose from translation and rotation (radians, wrapped).
+    pub fn new(x: f64, y: f64, theta: f64) -> Self {
+        Self {
+            x,
+            y,
+            theta: wrap_angle(theta),
+        }
+    }
+
+    /// A pose from translation and a heading in degrees.
+    pub fn from_deg(x: f64, y: f64, theta_deg: f64) -> Self {
+        Self::new(x, y, theta_deg.to_radians())
+    }
+
+    /// The heading in degrees.
+    pub fn theta_deg(&self) -> f64 {
+        self.theta.to_degrees()
+    }
+
+    /// The translation as a point.
+    pub fn translation(&self) -> Point2 {
+        Point2::new(self.x, self.y)
+    }
+
+    /// The inverse transform: `b_from_a` for `a_from_b`.
+    pub fn inverse(&self) -> Pose2 {
+        let (s, c) = self.theta.sin_cos();
+        Pose2::new(-(c * self.x + s * self.y), s * self.x - c * self.y, -self.theta)
+    }
+
+    /// Maps a point from frame `b` into frame `a`.
+    pub fn transform_point(&self, p: Point2) -> Point2 {
+        let (s, c) = self.theta.sin_cos();
+        Point2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
+    }
+
+    /// Maps a direction (no translation) from frame `b` into frame `a`.
+    pub fn rotate_vector(&self, v: Point2) -> Point2 {
+        let (s, c) = self.theta.sin_cos();
+        Point2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+    }
+
+    /// The relative transform `self⁻¹ · other`: for `world_from_a` and
+    /// `world_from_b` it is `a_from_b`.
+    pub fn between(&self, other: &Pose2) -> Pose2 {
+        self.inverse() * *other
+    }
+
+    /// As a nalgebra isometry, for linear-algebra code.
+    pub fn to_isometry(&self) -> Isometry2<f64> {
+        Isometry2::new(Vector2::new(self.x, self.y), self.theta)
+    }
+
+    /// From a nalgebra isometry.
+    pub fn from_isometry(iso: &Isometry2<f64>) -> Self {
+        Self::new(
+            iso.translation.x,
+            iso.translation.y,
+            iso.rotation.angle(),
+        )
+    }
+
+    /// True when every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
+    }
+}
+
+impl Mul for Pose2 {
+    type Output = Pose2;
+
+    /// Composition: `a_from_b * b_from_c = a_from_c`.
+    fn mul(self, rhs: Pose2) -> Pose2 {
+        let t = self.transform_point(rhs.translation());
+        Pose2::new(t.x, t.y, self.theta + rhs.theta)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn close(a: &Pose2, b: &Pose2) -> bool {
+        (a.x - b.x).abs() < 1e-9
+            && (a.y - b.y).abs() < 1e-9
+            && wrap_angle(a.theta - b.theta).abs() < 1e-9
+    }
+
+    fn pose() -> impl Strategy<Value = Pose2> {
+        (-10.0f64..10.0, -10.0f64..10.0, -4.0f64..4.0).prop_map(|(x, y, t)| Pose2::new(x, y, t))
+    }
+
+    #[test]
+    fn quarter_turn_moves_point() {
+        let a_from_b = Pose2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2);
+        let p = a_from_b.transform_point(Point2::new(2.0, 0.0));
+        assert!((p.x - 1.0).abs() < 1e-12 && (p.y - 2.0).abs() < 1e-12);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(11), ..ProptestConfig::default() })]
+
+        #[test]
+        fn inverse_composes_to_identity(p in pose()) {
+            prop_assert!(close(&(p * p.inverse()), &Pose2::IDENTITY));
+            prop_assert!(close(&(p.inverse() * p), &Pose2::IDENTITY));
+        }
+
+        #[test]
+        fn composition_is_associative(a in pose(), b in pose(), c in pose()) {
+            prop_assert!(close(&((a * b) * c), &(a * (b * c))));
+        }
+
+        #[test]
+        fn composition_matches_nalgebra(a in pose(), b in pose()) {
+            let ours = a * b;
+            let theirs = Pose2::from_isometry(&(a.to_isometry() * b.to_isometry()));
+            prop_assert!(close(&ours, &theirs));
+        }
+
+        #[test]
+        fn between_recovers_relative(a in pose(), b in pose()) {
+            prop_assert!(close(&(a * a.between(&b)), &b));
+        }
+    }
+}

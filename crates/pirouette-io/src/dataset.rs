@@ -1,0 +1,588 @@
+//! The `rop-dataset/1` camera dataset format.
+
+use crate::{atomic_write, atomic_write_with, IoError, World};
+use pirouette_camera::{Camera, IpmMeasurements, IpmModel, ModelKind, PinholeModel};
+use pirouette_geom::Pose2;
+use pirouette_profile::Rop;
+use serde::{Deserialize, Serialize};
+use std::path::{Component, Path, PathBuf};
+
+/// The format version this crate reads and writes.
+pub const FORMAT_VERSION: &str = "rop-dataset/1";
+
+/// The manifest, `dataset.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Always [`FORMAT_VERSION`].
+    pub format: String,
+    /// The dataset's name.
+    pub name: String,
+    /// The camera.
+    pub camera: CameraSpec,
+    /// The soft range limit, metres.
+    pub max_range: f64,
+    /// Frames in capture order.
+    pub frames: Vec<FrameSpec>,
+}
+
+/// The camera of a dataset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraSpec {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// The paper's four tape measurements (always present).
+    pub ipm: IpmMeasurements,
+    /// The exact pinhole model, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pinhole: Option<PinholeSpec>,
+    /// Camera offset from the rotation centre; zero when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mount: Option<MountSpec>,
+}
+
+/// Pinhole intrinsics and pose, as stored in the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PinholeSpec {
+    /// Focal length along `u`, pixels.
+    pub fx: f64,
+    /// Focal length along `v`, pixels.
+    pub fy: f64,
+    /// Principal point column, pixels.
+    pub cx: f64,
+    /// Principal point row, pixels.
+    pub cy: f64,
+    /// Camera height, metres.
+    pub height: f64,
+    /// Downward tilt of the optical axis, degrees.
+    pub tilt_deg: f64,
+}
+
+/// Camera offset from the rotation centre, robot frame, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct MountSpec {
+    /// Ahead of the centre.
+    #[serde(default)]
+    pub forward: f64,
+    /// To the left of the centre.
+    #[serde(default)]
+    pub left: f64,
+}
+
+/// One frame of the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameSpec {
+    /// Image path relative to the dataset folder.
+    pub image: String,
+    /// The sweep this frame belongs to.
+    pub sweep: u32,
+    /// Commanded motion since the previous frame; `None` for the first.
+    pub motion: Option<Motion>,
+    /// The actual pose at capture, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<PoseSpec>,
+}
+
+/// A commanded motion.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Motion {
+    /// In-place turn, degrees counter-clockwise.
+    Turn {
+        /// The commanded angle.
+        turn_deg: f64,
+    },
+    /// Straight forward move, metres.
+    Forward {
+        /// The commanded distance.
+        forward: f64,
+    },
+}
+
+/// A pose as stored in files: metres and degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseSpec {
+    /// Position x, metres.
+    pub x: f64,
+    /// Position y, metres.
+    pub y: f64,
+    /// Heading, degrees counter-clockwise from +x.
+    pub theta_deg: f64,
+}
+
+impl From<PoseSpec> for Pose2 {
+    fn from(p: PoseSpec) -> Pose2 {
+        Pose2::from_deg(p.x, p.y, p.theta_deg)
+    }
+}
+
+impl From<Pose2> for PoseSpec {
+    fn from(p: Pose2) -> PoseSpec {
+        PoseSpec { x: p.x, y: p.y, theta_deg: p.theta_deg() }
+    }
+}
+
+/// A true radial profile, `truth/rop/<sweep>/<k>.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthRop {
+    /// Start of bin 0, degrees.
+    pub bearing_start_deg: f64,
+    /// Bin width, degrees.
+    pub bin_deg: f64,
+    /// True range per bin, metres; `None` beyond `max_range` or not seen.
+    pub range: Vec<Option<f64>>,
+}
+
+impl TruthRop {
+    /// As a profile: `None` bins become unseen (NaN).
+    pub fn to_rop(&self, max_range_m: f32) -> Rop {
+        let mut rop = Rop::empty(
+            self.bearing_start_deg.to_radians(),
+            self.bin_deg.to_radians(),
+            self.range.len(),
+            max_range_m,
+        );
+        for (out, r) in rop.range_m.iter_mut().zip(&self.range) {
+            *out = r.map_or(f32::NAN, |r| r as f32);
+        }
+        rop
+    }
+
+    /// From a profile: bins without a reliable range become `None`.
+    pub fn from_rop(rop: &Rop) -> Self {
+        Self {
+            bearing_start_deg: rop.bearing_start_deg(),
+            bin_deg: rop.bin_width_deg(),
+            range: (0..rop.len()).map(|i| rop.reliable(i).map(|r| r as f64)).collect(),
+        }
+    }
+}
+
+impl CameraSpec {
+    /// The camera offset (zero when absent).
+    pub fn mount(&self) -> MountSpec {
+        self.mount.unwrap_or_default()
+    }
+
+    /// The paper's model of this camera.
+    pub fn ipm_model(&self) -> IpmModel {
+        let mount = self.mount();
+        IpmModel {
+            measurements: self.ipm,
+            width: self.width,
+            height: self.height,
+            mount_forward_m: mount.forward,
+            mount_left_m: mount.left,
+        }
+    }
+
+    /// The pinhole model of this camera, when the manifest gives one.
+    pub fn pinhole_model(&self) -> Option<PinholeModel> {
+        let p = self.pinhole.as_ref()?;
+        let mount = self.mount();
+        Some(PinholeModel {
+            width: self.width,
+            height: self.height,
+            fx: p.fx,
+            fy: p.fy,
+            cx: p.cx,
+            cy: p.cy,
+            height_m: p.height,
+            tilt_rad: p.tilt_deg.to_radians(),
+            mount_forward_m: mount.forward,
+            mount_left_m: mount.left,
+        })
+    }
+
+    /// The most accurate model the camera allows: pinhole when given.
+    pub fn default_kind(&self) -> ModelKind {
+        if self.pinhole.is_some() {
+            ModelKind::Pinhole
+        } else {
+            ModelKind::Paper
+        }
+    }
+
+    fn problem(&self) -> Option<String> {
+        if self.width < 2 || self.height < 2 {
+            return Some(format!("camera size {}x{} is too small", self.width, self.height));
+        }
+        if !self.ipm.is_valid() {
+            return Some("camera.ipm: b, h, d, w must be finite and positive".into());
+        }
+        if let Some(p) = &self.pinhole {
+            let finite = [p.fx, p.fy, p.cx, p.cy, p.height, p.tilt_deg].iter().all(|v| v.is_finite());
+            if !finite || p.fx <= 0.0 || p.fy <= 0.0 || p.height <= 0.0 {
+                return Some("camera.pinhole: fx, fy, height must be finite and positive, cx, cy, tilt_deg finite".into());
+            }
+            if !(-90.0..90.0).contains(&p.tilt_deg) {
+                return Some(format!("camera.pinhole.tilt_deg {} is outside (-90, 90)", p.tilt_deg));
+            }
+        }
+        let m = self.mount();
+        if !(m.forward.is_finite() && m.left.is_finite()) {
+            return Some("camera.mount: forward and left must be finite".into());
+        }
+        None
+    }
+}
+
+/// A dataset opened from disk: its folder and checked manifest.
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    /// The dataset folder.
+    pub root: PathBuf,
+    /// The manifest.
+    pub manifest: Manifest,
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, IoError> {
+    let text = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
+    serde_json::from_slice(&text).map_err(|e| IoError::Json { path: path.to_owned(), source: e })
+}
+
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), IoError> {
+    atomic_write_with(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
+        std::io::Write::write_all(w, b"\n")
+    })
+}
+
+/// A relative path that stays inside the dataset folder.
+fn is_safe_relative(p: &str) -> bool {
+    let path = Path::new(p);
+    !p.is_empty() && path.components().all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+}
+
+impl Dataset {
+    /// Opens the dataset in folder `root` (or whose `dataset.json` is
+    /// `root`), checking every field of the manifest and that every frame's
+    /// image exists.
+    pub fn open(root: &Path) -> Result<Self, IoError> {
+        let root = if root.is_file() {
+            root.parent().unwrap_or(Path::new(".")).to_owned()
+        } else {
+            root.to_owned()
+        };
+        let path = root.join("dataset.json");
+        if !root.is_dir() {
+            return Err(IoError::io(
+                &root,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no such dataset folder"),
+            ));
+        }
+        // The format is checked before the rest, so that a future version
+        // gets a clear message rather than a field error.
+        let raw: serde_json::Value = read_json(&path)?;
+        match raw.get("format").and_then(|f| f.as_str()) {
+            Some(FORMAT_VERSION) => {}
+            Some(other) => return Err(IoError::UnknownFormat { path, found: other.to_string() }),
+            None => return Err(IoError::invalid(&path, "missing field `format`")),
+        }
+        let manifest: Manifest = serde_json::from_value(raw).map_err(|e| IoError::Json { path: path.clone(), source: e })?;
+        let ds = Dataset { root, manifest };
+        ds.check(&path)?;
+        Ok(ds)
+    }
+
+    fn check(&self, path: &Path) -> Result<(), IoError> {
+        let m = &self.manifest;
+        if let Some(p) = m.camera.problem() {
+            return Err(IoError::invalid(path, p));
+        }
+        if !(m.max_range.is_finite() && m.max_range > 0.0) {
+            return Err(IoError::invalid(path, format!("max_range {} must be finite and positive", m.max_range)));
+        }
+        if m.frames.is_empty() {
+            return Err(IoError::invalid(path, "no frames"));
+        }
+        for (i, f) in m.frames.iter().enumerate() {
+            let bad = |what: String| IoError::invalid(path, format!("frames[{i}] ({}): {what}", f.image));
+            if !is_safe_relative(&f.image) {
+                return Err(bad("image must be a relative path inside the dataset".into()));
+            }
+            if !self.root.join(&f.image).is_file() {
+                return Err(bad("image file does not exist".into()));
+            }
+            match f.motion {
+                Some(Motion::Turn { turn_deg: v }) | Some(Motion::Forward { forward: v }) if !v.is_finite() => {
+                    return Err(bad("motion is not finite".into()))
+                }
+                _ => {}
+            }
+            if let Some(t) = f.truth {
+                if !(t.x.is_finite() && t.y.is_finite() && t.theta_deg.is_finite()) {
+                    return Err(bad("truth pose is not finite".into()));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The manifest's path.
+    pub fn manifest_path(&self) -> PathBuf {
+        self.root.join("dataset.json")
+    }
+
+    /// Path of frame `i`'s image.
+    ///
+    /// # Panics
+    /// When `i` is not a frame index.
+    pub fn image_path(&self, i: usize) -> PathBuf {
+        self.root.join(&self.manifest.frames[i].image)
+    }
+
+    /// Loads frame `i`'s image as 8-bit RGB (grey, alpha and 16-bit images
+    /// are converted), checking its size against the camera.
+    ///
+    /// # Panics
+    /// When `i` is not a frame index.
+    pub fn load_image(&self, i: usize) -> Result<image::RgbImage, IoError> {
+        load_rgb(&self.image_path(i), self.manifest.camera.width, self.manifest.camera.height)
+    }
+
+    /// The camera model of the given kind, or the most accurate one.
+    pub fn camera(&self, kind: Option<ModelKind>) -> Result<Camera, IoError> {
+        let cam = &self.manifest.camera;
+        match kind.unwrap_or_else(|| cam.default_kind()) {
+            ModelKind::Paper => Ok(Camera::Paper(cam.ipm_model())),
+            ModelKind::Pinhole => cam.pinhole_model().map(Camera::Pinhole).ok_or_else(|| {
+                IoError::invalid(self.manifest_path(), "the pinhole model was asked for, but camera.pinhole is absent")
+            }),
+        }
+    }
+
+    /// The truth pose of every frame, when all frames have one.
+    pub fn truth_poses(&self) -> Option<Vec<Pose2>> {
+        self.manifest.frames.iter().map(|f| f.truth.map(Pose2::from)).collect()
+    }
+
+    /// Path of `truth/world.json`.
+    pub fn world_path(&self) -> PathBuf {
+        self.root.join("truth").join("world.json")
+    }
+
+    /// The scene, if the dataset has `truth/world.json`.
+    pub fn world(&self) -> Result<Option<World>, IoError> {
+        let path = self.world_path();
+        if !path.exists() {
+            return Ok(None);
+        }
+        let w: World = read_json(&path)?;
+        if !w.bounds.iter().all(|v| v.is_finite()) {
+            return Err(IoError::invalid(&path, "bounds are not finite"));
+        }
+        if let Some((i, p)) = w.obstacles.iter().enumerate().find_map(|(i, o)| o.problem().map(|p| (i, p))) {
+            return Err(IoError::invalid(&path, format!("obstacles[{i}]: {p}")));
+        }
+        Ok(Some(w))
+    }
+
+    /// Path of frame `i`'s true profile: the image path with `frames/`
+    /// replaced by `truth/rop/` and the extension by `.json`.
+    ///
+    /// # Panics
+    /// When `i` is not a frame index.
+    pub fn truth_rop_path(&self, i: usize) -> PathBuf {
+        let image = Path::new(&self.manifest.frames[i].image);
+        let rel = image.strip_prefix("frames").unwrap_or(image);
+        self.root.join("truth").join("rop").join(rel).with_extension("json")
+    }
+
+    /// Frame `i`'s true profile, if the dataset has one.
+    ///
+    /// # Panics
+    /// When `i` is not a frame index.
+    pub fn truth_rop(&self, i: usize) -> Result<Option<TruthRop>, IoError> {
+        let path = self.truth_rop_path(i);
+        if !path.exists() {
+            return Ok(None);
+        }
+        let t: TruthRop = read_json(&path)?;
+        if !(t.bin_deg.is_finite() && t.bin_deg > 0.0 && t.bearing_start_deg.is_finite()) {
+            return Err(IoError::invalid(&path, "bin_deg must be positive and bearing_start_deg finite"));
+        }
+        if t.range.iter().flatten().any(|r| !r.is_finite() || *r < 0.0) {
+            return Err(IoError::invalid(&path, "a range is negative or not finite"));
+        }
+        Ok(Some(t))
+    }
+
+    /// Writes the manifest (atomically).
+    pub fn write_manifest(root: &Path, manifest: &Manifest) -> Result<(), IoError> {
+        write_json(&root.join("dataset.json"), manifest)
+    }
+
+    /// Writes the scene to `truth/world.json` (atomically).
+    pub fn write_world(root: &Path, world: &World) -> Result<(), IoError> {
+        write_json(&root.join("truth").join("world.json"), world)
+    }
+
+    /// Writes a true profile for the frame whose image is `image` (atomically).
+    pub fn write_truth_rop(root: &Path, image: &str, rop: &TruthRop) -> Result<(), IoError> {
+        let rel = Path::new(image);
+        let rel = rel.strip_prefix("frames").unwrap_or(rel);
+        write_json(&root.join("truth").join("rop").join(rel).with_extension("json"), rop)
+    }
+
+    /// Writes an 8-bit RGB image as PNG at `root/image` (atomically).
+    pub fn write_image(root: &Path, image: &str, rgb: &image::RgbImage) -> Result<(), IoError> {
+        let path = root.join(image);
+        let mut bytes = Vec::new();
+        rgb.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+            .map_err(|e| IoError::Image { path: path.clone(), source: e })?;
+        atomic_write(&path, &bytes)
+    }
+}
+
+/// Loads an image as 8-bit RGB and checks its size.
+pub(crate) fn load_rgb(path: &Path, width: u32, height: u32) -> Result<image::RgbImage, IoError> {
+    let reader = image::ImageReader::open(path)
+        .map_err(|e| IoError::io(path, e))?
+        .with_guessed_format()
+        .map_err(|e| IoError::io(path, e))?;
+    let img = reader.decode().map_err(|e| IoError::Image { path: path.to_owned(), source: e })?;
+    if img.width() != width || img.height() != height {
+        return Err(IoError::ImageSize {
+            path: path.to_owned(),
+            width,
+            height,
+            found_width: img.width(),
+            found_height: img.height(),
+        });
+    }
+    Ok(img.into_rgb8())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn manifest() -> Manifest {
+        Manifest {
+            format: FORMAT_VERSION.into(),
+            name: "t".into(),
+            camera: CameraSpec {
+                width: 8,
+                height: 6,
+                ipm: IpmMeasurements { b: 0.09, h: 0.1, d: 0.12, w: 0.13 },
+                pinhole: Some(PinholeSpec { fx: 7.0, fy: 7.0, cx: 3.5, cy: 2.5, height: 0.1, tilt_deg: 25.0 }),
+                mount: None,
+            },
+            max_range: 0.9,
+            frames: vec![
+                FrameSpec { image: "frames/s00/000.png".into(), sweep: 0, motion: None, truth: Some(PoseSpec { x: 0.1, y: 0.2, theta_deg: 30.0 }) },
+                FrameSpec { image: "frames/s00/001.png".into(), sweep: 0, motion: Some(Motion::Turn { turn_deg: 30.0 }), truth: None },
+                FrameSpec { image: "frames/s01/000.png".into(), sweep: 1, motion: Some(Motion::Forward { forward: 0.3 }), truth: None },
+            ],
+        }
+    }
+
+    fn write(dir: &Path, m: &Manifest) {
+        Dataset::write_manifest(dir, m).unwrap();
+        for f in &m.frames {
+            Dataset::write_image(dir, &f.image, &image::RgbImage::new(8, 6)).unwrap();
+        }
+    }
+
+    fn open_err(dir: &Path) -> String {
+        Dataset::open(dir).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn round_trip_keeps_every_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = manifest();
+        write(dir.path(), &m);
+        let ds = Dataset::open(dir.path()).unwrap();
+        assert_eq!(ds.manifest, m);
+        assert_eq!(ds.load_image(2).unwrap().dimensions(), (8, 6));
+        assert_eq!(ds.camera(None).unwrap().kind(), ModelKind::Pinhole);
+        let t = TruthRop { bearing_start_deg: -2.5, bin_deg: 1.0, range: vec![None, Some(0.5)] };
+        Dataset::write_truth_rop(dir.path(), "frames/s00/001.png", &t).unwrap();
+        assert_eq!(ds.truth_rop(1).unwrap(), Some(t));
+        assert_eq!(ds.truth_rop(0).unwrap(), None);
+    }
+
+    #[test]
+    fn optional_fields_are_optional() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), &manifest());
+        let text = r#"{"format": "rop-dataset/1", "name": "n",
+            "camera": {"width": 8, "height": 6, "ipm": {"b": 0.09, "h": 0.1, "d": 0.12, "w": 0.13}},
+            "max_range": 0.9,
+            "frames": [{"image": "frames/s00/000.png", "sweep": 0, "motion": null}]}"#;
+        std::fs::write(dir.path().join("dataset.json"), text).unwrap();
+        let ds = Dataset::open(dir.path()).unwrap();
+        assert_eq!(ds.camera(None).unwrap().kind(), ModelKind::Paper);
+        assert!(ds.camera(Some(ModelKind::Pinhole)).is_err());
+        assert!(ds.truth_poses().is_none());
+    }
+
+    #[test]
+    fn bad_inputs_give_errors_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        write(d, &manifest());
+        let manifest_path = d.join("dataset.json").display().to_string();
+
+        // Bad JSON.
+        std::fs::write(d.join("dataset.json"), "{ not json").unwrap();
+        let e = open_err(d);
+        assert!(e.contains(&manifest_path) && e.contains("bad JSON"), "{e}");
+
+        // Unknown format version.
+        let mut m = manifest();
+        m.format = "rop-dataset/2".into();
+        Dataset::write_manifest(d, &m).unwrap();
+        let e = open_err(d);
+        assert!(e.contains("unknown format `rop-dataset/2`"), "{e}");
+
+        // Non-finite numbers.
+        let text = serde_json::to_string(&manifest()).unwrap().replace("\"max_range\":0.9", "\"max_range\":-1");
+        std::fs::write(d.join("dataset.json"), text).unwrap();
+        assert!(open_err(d).contains("max_range"));
+        let text = serde_json::to_string(&manifest()).unwrap().replace("\"fx\":7.0", "\"fx\":1e999");
+        std::fs::write(d.join("dataset.json"), text).unwrap();
+        assert!(open_err(d).contains(&manifest_path));
+
+        // Frame without image.
+        let mut m = manifest();
+        m.frames[1].image = "frames/s00/missing.png".into();
+        Dataset::write_manifest(d, &m).unwrap();
+        let e = open_err(d);
+        assert!(e.contains("frames[1]") && e.contains("does not exist"), "{e}");
+        m.frames[1].image = "../escape.png".into();
+        Dataset::write_manifest(d, &m).unwrap();
+        assert!(open_err(d).contains("inside the dataset"));
+
+        // Wrong image size and unreadable image.
+        Dataset::write_manifest(d, &manifest()).unwrap();
+        let ds = Dataset::open(d).unwrap();
+        Dataset::write_image(d, "frames/s00/001.png", &image::RgbImage::new(4, 4)).unwrap();
+        let e = ds.load_image(1).unwrap_err().to_string();
+        assert!(e.contains("001.png") && e.contains("4x4"), "{e}");
+        std::fs::write(d.join("frames/s00/001.png"), b"not a png").unwrap();
+        let e = ds.load_image(1).unwrap_err().to_string();
+        assert!(e.contains("001.png") && e.contains("cannot decode"), "{e}");
+        std::fs::remove_file(d.join("frames/s00/001.png")).unwrap();
+        assert!(ds.load_image(1).unwrap_err().to_string().contains("001.png"));
+
+        // Missing folder.
+        assert!(open_err(&d.join("nope")).contains("nope"));
+    }
+
+    #[test]
+    fn grey_and_16_bit_images_load_as_rgb() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), &manifest());
+        let grey = image::GrayImage::from_pixel(8, 6, image::Luma([100]));
+        grey.save(dir.path().join("frames/s00/000.png")).unwrap();
+        let deep = image::ImageBuffer::<image::Rgb<u16>, _>::from_pixel(8, 6, image::Rgb([65535, 0, 0]));
+        deep.save(dir.path().join("frames/s00/001.png")).unwrap();
+        let ds = Dataset::open(dir.path()).unwrap();
+        assert_eq!(ds.load_image(0).unwrap().get_pixel(0, 0).0, [100, 100, 100]);
+        assert_eq!(ds.load_image(1).unwrap().get_pixel(0, 0).0, [255, 0, 0]);
+    }
+}

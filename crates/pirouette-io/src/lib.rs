@@ -1,0 +1,32 @@
+//! Readers and writers for Pirouette's files.
+//!
+//! - [`Dataset`]: a camera dataset in `rop-dataset/1` format (manifest,
+//!   frames, optional truth), read with every field checked.
+//! - [`Manifest`], [`CameraSpec`], [`FrameSpec`], [`Motion`]: the manifest.
+//! - [`World`], [`Obstacle`]: the scene of `truth/world.json`.
+//! - [`TruthRop`]: a true radial profile of `truth/rop/`.
+//! - [`atomic_write`]: every file is written to a temporary file, then
+//!   renamed, so a crash never leaves a half-written file.
+//!
+//! ```no_run
+//! use pirouette_io::Dataset;
+//! let ds = Dataset::open("datasets/field-pirouette".as_ref())?;
+//! println!("{} frames", ds.manifest.frames.len());
+//! let first = ds.load_image(0)?;
+//! assert_eq!(first.width(), ds.manifest.camera.width);
+//! # Ok::<(), pirouette_io::IoError>(())
+//! ```
+#![deny(missing_docs)]
+
+mod atomic;
+mod dataset;
+mod error;
+mod world;
+
+pub use atomic::{atomic_write, atomic_write_with};
+pub use dataset::{
+    CameraSpec, Dataset, FrameSpec, Manifest, MountSpec, Motion, PinholeSpec, PoseSpec, TruthRop,
+    FORMAT_VERSION,
+};
+pub use error::IoError;
+pub use world::{Obstacle, World};
