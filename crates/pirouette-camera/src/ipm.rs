@@ -136,7 +136,12 @@ mod tests {
     /// b = h = d = w = 0.1 m gives angles and ranges computable by hand:
     /// β = 45°, tan α = 1/3, tan 2α = 3/4, γ = atan(1/2).
     fn hand() -> IpmMeasurements {
-        IpmMeasurements { b: 0.1, h: 0.1, d: 0.1, w: 0.1 }
+        IpmMeasurements {
+            b: 0.1,
+            h: 0.1,
+            d: 0.1,
+            w: 0.1,
+        }
     }
 
     #[test]
@@ -166,7 +171,13 @@ mod tests {
 
     #[test]
     fn robot_frame_puts_left_columns_left() {
-        let model = IpmModel { measurements: hand(), width: 320, height: 240, mount_forward_m: 0.0, mount_left_m: 0.0 };
+        let model = IpmModel {
+            measurements: hand(),
+            width: 320,
+            height: 240,
+            mount_forward_m: 0.0,
+            mount_left_m: 0.0,
+        };
         let p = model.pixel_to_floor(0.0, 119.5).unwrap();
         assert!((p.x - 0.2).abs() < 1e-12 && (p.y - 0.1).abs() < 1e-12);
     }
@@ -174,18 +185,32 @@ mod tests {
     #[test]
     fn horizon_gives_no_floor() {
         // A steep field of view that reaches past the horizon at the top rows.
-        let m = IpmMeasurements { b: 0.1, h: 0.1, d: 1.0, w: 0.1 };
+        let m = IpmMeasurements {
+            b: 0.1,
+            h: 0.1,
+            d: 1.0,
+            w: 0.1,
+        };
         assert!(m.paper_xy(320, 240, 160.0, 0.0).is_none());
         assert!(m.paper_xy(320, 240, 160.0, 239.0).is_some());
     }
 
     #[test]
     fn project_inverts_pixel_to_floor() {
-        let model = IpmModel { measurements: hand(), width: 320, height: 240, mount_forward_m: 0.01, mount_left_m: -0.005 };
+        let model = IpmModel {
+            measurements: hand(),
+            width: 320,
+            height: 240,
+            mount_forward_m: 0.01,
+            mount_left_m: -0.005,
+        };
         for &(u, v) in &[(0.0, 239.0), (100.0, 50.0), (319.0, 119.5), (200.5, 180.25)] {
             let p = model.pixel_to_floor(u, v).unwrap();
             let (u2, v2) = model.floor_to_pixel(p).unwrap();
-            assert!((u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9, "{u},{v} -> {u2},{v2}");
+            assert!(
+                (u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9,
+                "{u},{v} -> {u2},{v2}"
+            );
         }
     }
 }

@@ -56,10 +56,7 @@ pub trait CameraModel {
     /// True when `(u, v)` lies inside the image (pixel centres `0..m-1`,
     /// `0..n-1`, each pixel extending half a pixel around its centre).
     fn contains(&self, u: f64, v: f64) -> bool {
-        u >= -0.5
-            && v >= -0.5
-            && u <= self.width() as f64 - 0.5
-            && v <= self.height() as f64 - 0.5
+        u >= -0.5 && v >= -0.5 && u <= self.width() as f64 - 0.5 && v <= self.height() as f64 - 0.5
     }
 }
 

@@ -155,11 +155,20 @@ mod tests {
         for &(fwd, left) in &[(0.0, 0.0), (0.01, 0.0)] {
             let pin = cam(fwd, left);
             let meas = pin.ipm_measurements().unwrap();
-            let paper = IpmModel { measurements: meas, width: 320, height: 240, mount_forward_m: fwd, mount_left_m: left };
+            let paper = IpmModel {
+                measurements: meas,
+                width: 320,
+                height: 240,
+                mount_forward_m: fwd,
+                mount_left_m: left,
+            };
             for v in [239.0, 119.5] {
                 let a = pin.pixel_to_floor(159.5, v).unwrap();
                 let b = paper.pixel_to_floor(159.5, v).unwrap();
-                assert!((a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12, "v={v}: {a:?} vs {b:?}");
+                assert!(
+                    (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12,
+                    "v={v}: {a:?} vs {b:?}"
+                );
             }
             // The centre scanline's image edge is exact too (w was taken there).
             let a = pin.pixel_to_floor(0.0, 119.5).unwrap();

@@ -49,7 +49,12 @@ impl FloorTable {
                 }
             }
         }
-        Self { width, height, xy, polar }
+        Self {
+            width,
+            height,
+            xy,
+            polar,
+        }
     }
 
     /// Image width, pixels.
@@ -63,7 +68,12 @@ impl FloorTable {
     }
 
     fn index(&self, u: u32, v: u32) -> usize {
-        assert!(u < self.width && v < self.height, "pixel ({u}, {v}) outside {}x{}", self.width, self.height);
+        assert!(
+            u < self.width && v < self.height,
+            "pixel ({u}, {v}) outside {}x{}",
+            self.width,
+            self.height
+        );
         v as usize * self.width as usize + u as usize
     }
 
@@ -79,7 +89,9 @@ impl FloorTable {
 
     /// As [`FloorTable::floor`], `None` outside the image too.
     pub fn floor_checked(&self, u: u32, v: u32) -> Option<Point2> {
-        (u < self.width && v < self.height).then(|| self.floor(u, v)).flatten()
+        (u < self.width && v < self.height)
+            .then(|| self.floor(u, v))
+            .flatten()
     }
 
     /// Polar coordinates of pixel `(u, v)`, or `None` above the horizon.
@@ -93,7 +105,9 @@ impl FloorTable {
 
     /// As [`FloorTable::polar`], `None` outside the image too.
     pub fn polar_checked(&self, u: u32, v: u32) -> Option<Polar> {
-        (u < self.width && v < self.height).then(|| self.polar(u, v)).flatten()
+        (u < self.width && v < self.height)
+            .then(|| self.polar(u, v))
+            .flatten()
     }
 
     /// The floor point at column `u` and fractional row `v` (sub-pixel),
@@ -120,7 +134,18 @@ mod tests {
     use crate::PinholeModel;
 
     fn cam() -> PinholeModel {
-        PinholeModel { width: 32, height: 24, fx: 27.7, fy: 27.7, cx: 15.5, cy: 11.5, height_m: 0.1, tilt_rad: 0.2, mount_forward_m: 0.01, mount_left_m: 0.0 }
+        PinholeModel {
+            width: 32,
+            height: 24,
+            fx: 27.7,
+            fy: 27.7,
+            cx: 15.5,
+            cy: 11.5,
+            height_m: 0.1,
+            tilt_rad: 0.2,
+            mount_forward_m: 0.01,
+            mount_left_m: 0.0,
+        }
     }
 
     #[test]

@@ -114,11 +114,7 @@ impl Pose2 {
 
     /// From a nalgebra isometry.
     pub fn from_isometry(iso: &Isometry2<f64>) -> Self {
-        Self::new(
-            iso.translation.x,
-            iso.translation.y,
-            iso.rotation.angle(),
-        )
+        Self::new(iso.translation.x, iso.translation.y, iso.rotation.angle())
     }
 
     /// True when every component is finite.
@@ -131,6 +127,8 @@ impl Mul for Pose2 {
     type Output = Pose2;
 
     /// Composition: `a_from_b * b_from_c = a_from_c`.
+    // Composing rotations adds their angles: the `+` is the group law.
+    #[allow(clippy::suspicious_arithmetic_impl)]
     fn mul(self, rhs: Pose2) -> Pose2 {
         let t = self.transform_point(rhs.translation());
         Pose2::new(t.x, t.y, self.theta + rhs.theta)
@@ -143,9 +141,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn close(a: &Pose2, b: &Pose2) -> bool {
-        (a.x - b.x).abs() < 1e-9
-            && (a.y - b.y).abs() < 1e-9
-            && wrap_angle(a.theta - b.theta).abs() < 1e-9
+        (a.x - b.x).abs() < 1e-9 && (a.y - b.y).abs() < 1e-9 && wrap_angle(a.theta - b.theta).abs() < 1e-9
     }
 
     fn pose() -> impl Strategy<Value = Pose2> {

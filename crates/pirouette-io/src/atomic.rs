@@ -23,11 +23,7 @@ pub fn atomic_write_with(
     let name = path
         .file_name()
         .ok_or_else(|| IoError::invalid(path, "not a file path"))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
+    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
     let result = (|| {
         let file = std::fs::File::create(&tmp)?;
         {

@@ -119,7 +119,11 @@ impl From<PoseSpec> for Pose2 {
 
 impl From<Pose2> for PoseSpec {
     fn from(p: Pose2) -> PoseSpec {
-        PoseSpec { x: p.x, y: p.y, theta_deg: p.theta_deg() }
+        PoseSpec {
+            x: p.x,
+            y: p.y,
+            theta_deg: p.theta_deg(),
+        }
     }
 }
 
@@ -154,7 +158,9 @@ impl TruthRop {
         Self {
             bearing_start_deg: rop.bearing_start_deg(),
             bin_deg: rop.bin_width_deg(),
-            range: (0..rop.len()).map(|i| rop.reliable(i).map(|r| r as f64)).collect(),
+            range: (0..rop.len())
+                .map(|i| rop.reliable(i).map(|r| r as f64))
+                .collect(),
         }
     }
 }
@@ -212,12 +218,20 @@ impl CameraSpec {
             return Some("camera.ipm: b, h, d, w must be finite and positive".into());
         }
         if let Some(p) = &self.pinhole {
-            let finite = [p.fx, p.fy, p.cx, p.cy, p.height, p.tilt_deg].iter().all(|v| v.is_finite());
+            let finite = [p.fx, p.fy, p.cx, p.cy, p.height, p.tilt_deg]
+                .iter()
+                .all(|v| v.is_finite());
             if !finite || p.fx <= 0.0 || p.fy <= 0.0 || p.height <= 0.0 {
-                return Some("camera.pinhole: fx, fy, height must be finite and positive, cx, cy, tilt_deg finite".into());
+                return Some(
+                    "camera.pinhole: fx, fy, height must be finite and positive, cx, cy, tilt_deg finite"
+                        .into(),
+                );
             }
             if !(-90.0..90.0).contains(&p.tilt_deg) {
-                return Some(format!("camera.pinhole.tilt_deg {} is outside (-90, 90)", p.tilt_deg));
+                return Some(format!(
+                    "camera.pinhole.tilt_deg {} is outside (-90, 90)",
+                    p.tilt_deg
+                ));
             }
         }
         let m = self.mount();
@@ -239,7 +253,10 @@ pub struct Dataset {
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, IoError> {
     let text = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
-    serde_json::from_slice(&text).map_err(|e| IoError::Json { path: path.to_owned(), source: e })
+    serde_json::from_slice(&text).map_err(|e| IoError::Json {
+        path: path.to_owned(),
+        source: e,
+    })
 }
 
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), IoError> {
@@ -252,7 +269,10 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), IoError> {
 /// A relative path that stays inside the dataset folder.
 fn is_safe_relative(p: &str) -> bool {
     let path = Path::new(p);
-    !p.is_empty() && path.components().all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+    !p.is_empty()
+        && path
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
 }
 
 impl Dataset {
@@ -277,10 +297,18 @@ impl Dataset {
         let raw: serde_json::Value = read_json(&path)?;
         match raw.get("format").and_then(|f| f.as_str()) {
             Some(FORMAT_VERSION) => {}
-            Some(other) => return Err(IoError::UnknownFormat { path, found: other.to_string() }),
+            Some(other) => {
+                return Err(IoError::UnknownFormat {
+                    path,
+                    found: other.to_string(),
+                })
+            }
             None => return Err(IoError::invalid(&path, "missing field `format`")),
         }
-        let manifest: Manifest = serde_json::from_value(raw).map_err(|e| IoError::Json { path: path.clone(), source: e })?;
+        let manifest: Manifest = serde_json::from_value(raw).map_err(|e| IoError::Json {
+            path: path.clone(),
+            source: e,
+        })?;
         let ds = Dataset { root, manifest };
         ds.check(&path)?;
         Ok(ds)
@@ -292,7 +320,10 @@ impl Dataset {
             return Err(IoError::invalid(path, p));
         }
         if !(m.max_range.is_finite() && m.max_range > 0.0) {
-            return Err(IoError::invalid(path, format!("max_range {} must be finite and positive", m.max_range)));
+            return Err(IoError::invalid(
+                path,
+                format!("max_range {} must be finite and positive", m.max_range),
+            ));
         }
         if m.frames.is_empty() {
             return Err(IoError::invalid(path, "no frames"));
@@ -306,7 +337,9 @@ impl Dataset {
                 return Err(bad("image file does not exist".into()));
             }
             match f.motion {
-                Some(Motion::Turn { turn_deg: v }) | Some(Motion::Forward { forward: v }) if !v.is_finite() => {
+                Some(Motion::Turn { turn_deg: v }) | Some(Motion::Forward { forward: v })
+                    if !v.is_finite() =>
+                {
                     return Err(bad("motion is not finite".into()))
                 }
                 _ => {}
@@ -339,7 +372,11 @@ impl Dataset {
     /// # Panics
     /// When `i` is not a frame index.
     pub fn load_image(&self, i: usize) -> Result<image::RgbImage, IoError> {
-        load_rgb(&self.image_path(i), self.manifest.camera.width, self.manifest.camera.height)
+        load_rgb(
+            &self.image_path(i),
+            self.manifest.camera.width,
+            self.manifest.camera.height,
+        )
     }
 
     /// The camera model of the given kind, or the most accurate one.
@@ -348,14 +385,21 @@ impl Dataset {
         match kind.unwrap_or_else(|| cam.default_kind()) {
             ModelKind::Paper => Ok(Camera::Paper(cam.ipm_model())),
             ModelKind::Pinhole => cam.pinhole_model().map(Camera::Pinhole).ok_or_else(|| {
-                IoError::invalid(self.manifest_path(), "the pinhole model was asked for, but camera.pinhole is absent")
+                IoError::invalid(
+                    self.manifest_path(),
+                    "the pinhole model was asked for, but camera.pinhole is absent",
+                )
             }),
         }
     }
 
     /// The truth pose of every frame, when all frames have one.
     pub fn truth_poses(&self) -> Option<Vec<Pose2>> {
-        self.manifest.frames.iter().map(|f| f.truth.map(Pose2::from)).collect()
+        self.manifest
+            .frames
+            .iter()
+            .map(|f| f.truth.map(Pose2::from))
+            .collect()
     }
 
     /// Path of `truth/world.json`.
@@ -373,7 +417,12 @@ impl Dataset {
         if !w.bounds.iter().all(|v| v.is_finite()) {
             return Err(IoError::invalid(&path, "bounds are not finite"));
         }
-        if let Some((i, p)) = w.obstacles.iter().enumerate().find_map(|(i, o)| o.problem().map(|p| (i, p))) {
+        if let Some((i, p)) = w
+            .obstacles
+            .iter()
+            .enumerate()
+            .find_map(|(i, o)| o.problem().map(|p| (i, p)))
+        {
             return Err(IoError::invalid(&path, format!("obstacles[{i}]: {p}")));
         }
         Ok(Some(w))
@@ -387,7 +436,11 @@ impl Dataset {
     pub fn truth_rop_path(&self, i: usize) -> PathBuf {
         let image = Path::new(&self.manifest.frames[i].image);
         let rel = image.strip_prefix("frames").unwrap_or(image);
-        self.root.join("truth").join("rop").join(rel).with_extension("json")
+        self.root
+            .join("truth")
+            .join("rop")
+            .join(rel)
+            .with_extension("json")
     }
 
     /// Frame `i`'s true profile, if the dataset has one.
@@ -401,7 +454,10 @@ impl Dataset {
         }
         let t: TruthRop = read_json(&path)?;
         if !(t.bin_deg.is_finite() && t.bin_deg > 0.0 && t.bearing_start_deg.is_finite()) {
-            return Err(IoError::invalid(&path, "bin_deg must be positive and bearing_start_deg finite"));
+            return Err(IoError::invalid(
+                &path,
+                "bin_deg must be positive and bearing_start_deg finite",
+            ));
         }
         if t.range.iter().flatten().any(|r| !r.is_finite() || *r < 0.0) {
             return Err(IoError::invalid(&path, "a range is negative or not finite"));
@@ -423,7 +479,10 @@ impl Dataset {
     pub fn write_truth_rop(root: &Path, image: &str, rop: &TruthRop) -> Result<(), IoError> {
         let rel = Path::new(image);
         let rel = rel.strip_prefix("frames").unwrap_or(rel);
-        write_json(&root.join("truth").join("rop").join(rel).with_extension("json"), rop)
+        write_json(
+            &root.join("truth").join("rop").join(rel).with_extension("json"),
+            rop,
+        )
     }
 
     /// Writes an 8-bit RGB image as PNG at `root/image` (atomically).
@@ -431,7 +490,10 @@ impl Dataset {
         let path = root.join(image);
         let mut bytes = Vec::new();
         rgb.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-            .map_err(|e| IoError::Image { path: path.clone(), source: e })?;
+            .map_err(|e| IoError::Image {
+                path: path.clone(),
+                source: e,
+            })?;
         atomic_write(&path, &bytes)
     }
 }
@@ -442,7 +504,10 @@ pub(crate) fn load_rgb(path: &Path, width: u32, height: u32) -> Result<image::Rg
         .map_err(|e| IoError::io(path, e))?
         .with_guessed_format()
         .map_err(|e| IoError::io(path, e))?;
-    let img = reader.decode().map_err(|e| IoError::Image { path: path.to_owned(), source: e })?;
+    let img = reader.decode().map_err(|e| IoError::Image {
+        path: path.to_owned(),
+        source: e,
+    })?;
     if img.width() != width || img.height() != height {
         return Err(IoError::ImageSize {
             path: path.to_owned(),
@@ -466,15 +531,46 @@ mod tests {
             camera: CameraSpec {
                 width: 8,
                 height: 6,
-                ipm: IpmMeasurements { b: 0.09, h: 0.1, d: 0.12, w: 0.13 },
-                pinhole: Some(PinholeSpec { fx: 7.0, fy: 7.0, cx: 3.5, cy: 2.5, height: 0.1, tilt_deg: 25.0 }),
+                ipm: IpmMeasurements {
+                    b: 0.09,
+                    h: 0.1,
+                    d: 0.12,
+                    w: 0.13,
+                },
+                pinhole: Some(PinholeSpec {
+                    fx: 7.0,
+                    fy: 7.0,
+                    cx: 3.5,
+                    cy: 2.5,
+                    height: 0.1,
+                    tilt_deg: 25.0,
+                }),
                 mount: None,
             },
             max_range: 0.9,
             frames: vec![
-                FrameSpec { image: "frames/s00/000.png".into(), sweep: 0, motion: None, truth: Some(PoseSpec { x: 0.1, y: 0.2, theta_deg: 30.0 }) },
-                FrameSpec { image: "frames/s00/001.png".into(), sweep: 0, motion: Some(Motion::Turn { turn_deg: 30.0 }), truth: None },
-                FrameSpec { image: "frames/s01/000.png".into(), sweep: 1, motion: Some(Motion::Forward { forward: 0.3 }), truth: None },
+                FrameSpec {
+                    image: "frames/s00/000.png".into(),
+                    sweep: 0,
+                    motion: None,
+                    truth: Some(PoseSpec {
+                        x: 0.1,
+                        y: 0.2,
+                        theta_deg: 30.0,
+                    }),
+                },
+                FrameSpec {
+                    image: "frames/s00/001.png".into(),
+                    sweep: 0,
+                    motion: Some(Motion::Turn { turn_deg: 30.0 }),
+                    truth: None,
+                },
+                FrameSpec {
+                    image: "frames/s01/000.png".into(),
+                    sweep: 1,
+                    motion: Some(Motion::Forward { forward: 0.3 }),
+                    truth: None,
+                },
             ],
         }
     }
@@ -499,7 +595,11 @@ mod tests {
         assert_eq!(ds.manifest, m);
         assert_eq!(ds.load_image(2).unwrap().dimensions(), (8, 6));
         assert_eq!(ds.camera(None).unwrap().kind(), ModelKind::Pinhole);
-        let t = TruthRop { bearing_start_deg: -2.5, bin_deg: 1.0, range: vec![None, Some(0.5)] };
+        let t = TruthRop {
+            bearing_start_deg: -2.5,
+            bin_deg: 1.0,
+            range: vec![None, Some(0.5)],
+        };
         Dataset::write_truth_rop(dir.path(), "frames/s00/001.png", &t).unwrap();
         assert_eq!(ds.truth_rop(1).unwrap(), Some(t));
         assert_eq!(ds.truth_rop(0).unwrap(), None);
@@ -540,10 +640,14 @@ mod tests {
         assert!(e.contains("unknown format `rop-dataset/2`"), "{e}");
 
         // Non-finite numbers.
-        let text = serde_json::to_string(&manifest()).unwrap().replace("\"max_range\":0.9", "\"max_range\":-1");
+        let text = serde_json::to_string(&manifest())
+            .unwrap()
+            .replace("\"max_range\":0.9", "\"max_range\":-1");
         std::fs::write(d.join("dataset.json"), text).unwrap();
         assert!(open_err(d).contains("max_range"));
-        let text = serde_json::to_string(&manifest()).unwrap().replace("\"fx\":7.0", "\"fx\":1e999");
+        let text = serde_json::to_string(&manifest())
+            .unwrap()
+            .replace("\"fx\":7.0", "\"fx\":1e999");
         std::fs::write(d.join("dataset.json"), text).unwrap();
         assert!(open_err(d).contains(&manifest_path));
 

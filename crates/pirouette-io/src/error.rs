@@ -63,10 +63,16 @@ pub enum IoError {
 
 impl IoError {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        IoError::Io { path: path.into(), source }
+        IoError::Io {
+            path: path.into(),
+            source,
+        }
     }
 
     pub(crate) fn invalid(path: impl Into<PathBuf>, problem: impl Into<String>) -> Self {
-        IoError::Invalid { path: path.into(), problem: problem.into() }
+        IoError::Invalid {
+            path: path.into(),
+            problem: problem.into(),
+        }
     }
 }

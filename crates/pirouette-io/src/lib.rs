@@ -25,8 +25,8 @@ mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
 pub use dataset::{
-    CameraSpec, Dataset, FrameSpec, Manifest, MountSpec, Motion, PinholeSpec, PoseSpec, TruthRop,
+    CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
     FORMAT_VERSION,
 };
 pub use error::IoError;
-pub use world::{Obstacle, World};
+pub use world::{FootprintHit, Obstacle, World};

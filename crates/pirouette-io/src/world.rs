@@ -13,6 +13,17 @@ pub struct World {
     pub obstacles: Vec<Obstacle>,
 }
 
+/// Where a 2D ray crosses an obstacle's footprint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FootprintHit {
+    /// Ray parameter where the ray enters the footprint.
+    pub t_enter: f64,
+    /// Ray parameter where it leaves.
+    pub t_exit: f64,
+    /// Outward unit normal of the face entered.
+    pub normal: [f64; 2],
+}
+
 /// An obstacle standing on the floor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
@@ -59,12 +70,17 @@ impl Obstacle {
         }
     }
 
-    /// Distance along the 2D ray `origin + t·dir` (unit `dir`) to where it
-    /// first enters the obstacle's footprint, if it does at `t ≥ 0`. A ray
-    /// starting inside the footprint hits at `t = 0`.
-    pub fn ray_hit(&self, origin: [f64; 2], dir: [f64; 2]) -> Option<f64> {
+    /// Where the 2D ray `origin + t·dir` (any non-zero `dir`) crosses the
+    /// obstacle's footprint: the entry and exit parameters and the outward
+    /// normal at the entry. A ray starting inside has `t_enter < 0`.
+    pub fn ray_interval(&self, origin: [f64; 2], dir: [f64; 2]) -> Option<FootprintHit> {
         match *self {
-            Obstacle::Box { center, size, yaw_deg, .. } => {
+            Obstacle::Box {
+                center,
+                size,
+                yaw_deg,
+                ..
+            } => {
                 let (s, c) = yaw_deg.to_radians().sin_cos();
                 // Into the box's own frame.
                 let ox = origin[0] - center[0];
@@ -73,47 +89,95 @@ impl Obstacle {
                 let ld = [c * dir[0] + s * dir[1], -s * dir[0] + c * dir[1]];
                 let half = [size[0] / 2.0, size[1] / 2.0];
                 let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+                let mut local_normal = [0.0, 0.0];
                 for k in 0..2 {
-                    if ld[k].abs() < 1e-15 {
+                    if ld[k] == 0.0 {
                         if lo[k].abs() > half[k] {
                             return None;
                         }
-                    } else {
-                        let a = (-half[k] - lo[k]) / ld[k];
-                        let b = (half[k] - lo[k]) / ld[k];
-                        t0 = t0.max(a.min(b));
-                        t1 = t1.min(a.max(b));
+                        continue;
                     }
+                    let a = (-half[k] - lo[k]) / ld[k];
+                    let b = (half[k] - lo[k]) / ld[k];
+                    let near = a.min(b);
+                    if near > t0 {
+                        t0 = near;
+                        local_normal = [0.0, 0.0];
+                        local_normal[k] = -ld[k].signum();
+                    }
+                    t1 = t1.min(a.max(b));
                 }
-                (t1 >= t0.max(0.0)).then_some(t0.max(0.0))
+                if t1 < t0 || t1 < 0.0 {
+                    return None;
+                }
+                let normal = [
+                    c * local_normal[0] - s * local_normal[1],
+                    s * local_normal[0] + c * local_normal[1],
+                ];
+                Some(FootprintHit {
+                    t_enter: t0,
+                    t_exit: t1,
+                    normal,
+                })
             }
             Obstacle::Cylinder { center, radius, .. } => {
                 let ox = origin[0] - center[0];
                 let oy = origin[1] - center[1];
+                let a = dir[0] * dir[0] + dir[1] * dir[1];
                 let b = ox * dir[0] + oy * dir[1];
                 let c = ox * ox + oy * oy - radius * radius;
-                if c <= 0.0 {
-                    return Some(0.0);
-                }
-                let disc = b * b - c;
-                if disc < 0.0 {
+                let disc = b * b - a * c;
+                if a == 0.0 || disc < 0.0 {
                     return None;
                 }
-                let t = -b - disc.sqrt();
-                (t >= 0.0).then_some(t)
+                let root = disc.sqrt();
+                let (t0, t1) = ((-b - root) / a, (-b + root) / a);
+                if t1 < 0.0 {
+                    return None;
+                }
+                let px = ox + t0 * dir[0];
+                let py = oy + t0 * dir[1];
+                let n = px.hypot(py).max(1e-300);
+                Some(FootprintHit {
+                    t_enter: t0,
+                    t_exit: t1,
+                    normal: [px / n, py / n],
+                })
             }
         }
+    }
+
+    /// Distance along the 2D ray `origin + t·dir` (unit `dir`) to where it
+    /// first meets the obstacle's footprint at `t ≥ 0`. A ray starting
+    /// inside the footprint hits at `t = 0`.
+    pub fn ray_hit(&self, origin: [f64; 2], dir: [f64; 2]) -> Option<f64> {
+        self.ray_interval(origin, dir).map(|h| h.t_enter.max(0.0))
     }
 
     /// Every number finite, sizes positive.
     pub fn problem(&self) -> Option<String> {
         let ok = match self {
-            Obstacle::Box { center, size, yaw_deg, height, .. } => {
-                center.iter().chain(size).chain([yaw_deg, height]).all(|v| v.is_finite())
+            Obstacle::Box {
+                center,
+                size,
+                yaw_deg,
+                height,
+                ..
+            } => {
+                center
+                    .iter()
+                    .chain(size)
+                    .chain([yaw_deg, height])
+                    .all(|v| v.is_finite())
                     && size.iter().all(|s| *s > 0.0)
                     && *height > 0.0
             }
-            Obstacle::Cylinder { center, radius, height, .. } => {
+            Obstacle::Cylinder {
+                center,
+                radius,
+                height,
+                ..
+            } => {
                 center.iter().chain([radius, height]).all(|v| v.is_finite()) && *radius > 0.0 && *height > 0.0
             }
         };
@@ -138,14 +202,28 @@ mod tests {
 
     #[test]
     fn ray_hits_rotated_box_and_cylinder() {
-        let b = Obstacle::Box { center: [1.0, 0.0], size: [0.2, 0.2], yaw_deg: 45.0, height: 0.1, rgb: [0; 3] };
+        let b = Obstacle::Box {
+            center: [1.0, 0.0],
+            size: [0.2, 0.2],
+            yaw_deg: 45.0,
+            height: 0.1,
+            rgb: [0; 3],
+        };
         // A 0.2 m square turned 45° reaches √2·0.1 towards the origin.
         let t = b.ray_hit([0.0, 0.0], [1.0, 0.0]).unwrap();
         assert!((t - (1.0 - 0.1 * 2f64.sqrt())).abs() < 1e-12);
         assert!(b.ray_hit([0.0, 0.0], [0.0, 1.0]).is_none());
-        let c = Obstacle::Cylinder { center: [0.0, 2.0], radius: 0.5, height: 0.1, rgb: [0; 3] };
+        let c = Obstacle::Cylinder {
+            center: [0.0, 2.0],
+            radius: 0.5,
+            height: 0.1,
+            rgb: [0; 3],
+        };
         assert!((c.ray_hit([0.0, 0.0], [0.0, 1.0]).unwrap() - 1.5).abs() < 1e-12);
         assert!(c.ray_hit([0.0, 0.0], [0.0, -1.0]).is_none());
         assert_eq!(c.ray_hit([0.0, 2.1], [1.0, 0.0]), Some(0.0));
+        let h = b.ray_interval([0.0, 0.0], [2.0, 0.0]).unwrap();
+        assert!((h.t_enter * 2.0 - (1.0 - 0.1 * 2f64.sqrt())).abs() < 1e-12);
+        assert!((h.normal[0] + 0.5f64.sqrt()).abs() < 1e-12);
     }
 }

@@ -37,11 +37,13 @@ impl ColourTag {
     /// The tag of a linear RGB colour (any scale); `None` for black.
     pub fn from_rgb(rgb: [f32; 3]) -> Option<Self> {
         let max = rgb[0].max(rgb[1]).max(rgb[2]);
-        if !(max > 0.0) {
+        if max.is_nan() || max <= 0.0 {
             return None;
         }
         let s = 255.0 / max;
-        Some(ColourTag(rgb.map(|c| (c.max(0.0) * s).round().clamp(0.0, 255.0) as u8)))
+        Some(ColourTag(
+            rgb.map(|c| (c.max(0.0) * s).round().clamp(0.0, 255.0) as u8),
+        ))
     }
 
     /// Chromaticity `(r, g)` with `r + g + b = 1`.
@@ -88,21 +90,25 @@ impl Rop {
         if !(bin_width_rad.is_finite() && bin_width_rad > 0.0) {
             return Err(ProfileError::BadBinWidth { bin_width_rad });
         }
-        if !(min_bearing_rad.is_finite() && max_bearing_rad.is_finite())
-            || max_bearing_rad < min_bearing_rad
+        if !(min_bearing_rad.is_finite() && max_bearing_rad.is_finite()) || max_bearing_rad < min_bearing_rad
         {
             return Err(ProfileError::BadInterval {
                 start_rad: min_bearing_rad,
                 end_rad: max_bearing_rad,
             });
         }
-        if !(max_range_m > 0.0) {
+        if max_range_m.is_nan() || max_range_m <= 0.0 {
             return Err(ProfileError::BadMaxRange { max_range_m });
         }
         let first = (min_bearing_rad / bin_width_rad + 0.5).floor();
         let last = (max_bearing_rad / bin_width_rad + 0.5).floor();
         let bins = (last - first) as usize + 1;
-        Ok(Self::empty((first - 0.5) * bin_width_rad, bin_width_rad, bins, max_range_m))
+        Ok(Self::empty(
+            (first - 0.5) * bin_width_rad,
+            bin_width_rad,
+            bins,
+            max_range_m,
+        ))
     }
 
     /// A profile of `bins` unseen bins starting at `bearing_start_rad`.
@@ -227,8 +233,17 @@ mod tests {
 
     #[test]
     fn bad_arguments_are_errors() {
-        assert!(matches!(Rop::covering(0.0, 1.0, 0.0, 1.0), Err(ProfileError::BadBinWidth { .. })));
-        assert!(matches!(Rop::covering(1.0, 0.0, 0.1, 1.0), Err(ProfileError::BadInterval { .. })));
-        assert!(matches!(Rop::covering(0.0, 1.0, 0.1, -1.0), Err(ProfileError::BadMaxRange { .. })));
+        assert!(matches!(
+            Rop::covering(0.0, 1.0, 0.0, 1.0),
+            Err(ProfileError::BadBinWidth { .. })
+        ));
+        assert!(matches!(
+            Rop::covering(1.0, 0.0, 0.1, 1.0),
+            Err(ProfileError::BadInterval { .. })
+        ));
+        assert!(matches!(
+            Rop::covering(0.0, 1.0, 0.1, -1.0),
+            Err(ProfileError::BadMaxRange { .. })
+        ));
     }
 }

@@ -1,14 +1,102 @@
-pub fn add(left: u64, right: u64) -> u64 {
-    left + right
-}
+//! Pirouette's own renderer: scenes of boxes and cylinders on a floor,
+//! rendered through a pinhole camera into complete `rop-dataset/1` datasets
+//! with ground truth.
+//!
+//! - [`Scene`]: the scene file format (world, camera, look, route, motion
+//!   errors); [`Scene::builtin`] has the built-in scenes.
+//! - [`plan_route`]: the commanded motions of a route and the actual poses
+//!   they produce under turn and distance errors and a drifting rotation
+//!   centre.
+//! - [`Renderer`]: the ray caster (shading, vignetting, floor variation,
+//!   specks, sensor noise, 2 × 2 supersampling).
+//! - [`true_profile`]: the true radial profile of a pose, by 2D ray casting.
+//! - [`render_dataset`]: all of it, written to a folder.
+//!
+//! ```no_run
+//! use pirouette_sim::{Scene, render_dataset};
+//! let scene = Scene::builtin("field-pirouette").ok_or("no such scene")?;
+//! render_dataset(&scene, 7, "out/field".as_ref(), |_done, _total| {})?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![deny(missing_docs)]
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+mod motion;
+mod render;
+mod scene;
+mod truth;
 
-    #[test]
-    fn it_works() {
-        let result = add(2, 2);
-        assert_eq!(result, 4);
+pub use motion::{plan_route, PlannedFrame};
+pub use render::Renderer;
+pub use scene::{CameraSetup, Look, MotionErrors, Route, Scene, SimError, BUILTIN_SCENES};
+pub use truth::{floor_view_bearings, true_profile, RAYS_PER_BIN};
+
+use pirouette_io::{
+    CameraSpec, Dataset, FrameSpec, Manifest, MountSpec, PinholeSpec, PoseSpec, TruthRop, FORMAT_VERSION,
+};
+use std::path::Path;
+
+/// Renders `scene` with `seed` into a complete dataset in `out`: manifest,
+/// frames, `truth/world.json` and `truth/rop`. `progress(done, total)` is
+/// called after each frame. Files are written atomically.
+pub fn render_dataset(
+    scene: &Scene,
+    seed: u64,
+    out: &Path,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Manifest, SimError> {
+    scene.validate()?;
+    let camera = scene.camera.pinhole();
+    let ipm = camera.ipm_measurements().ok_or(SimError::Invalid {
+        problem: "camera: the centre scanline does not see the floor (tilt too small)".into(),
+    })?;
+    let frames = plan_route(scene, seed);
+    let renderer = Renderer::new(scene, seed);
+    let mut specs = Vec::with_capacity(frames.len());
+    for (k, f) in frames.iter().enumerate() {
+        let image_rel = format!("frames/s{:02}/{:03}.png", f.sweep, f.index_in_sweep);
+        let img = renderer.render(&f.world_from_robot, k as u64);
+        Dataset::write_image(out, &image_rel, &img)?;
+        let rop = true_profile(
+            &scene.world,
+            &camera,
+            &f.world_from_robot,
+            scene.max_range,
+            1f64.to_radians(),
+        );
+        Dataset::write_truth_rop(out, &image_rel, &TruthRop::from_rop(&rop))?;
+        specs.push(FrameSpec {
+            image: image_rel,
+            sweep: f.sweep,
+            motion: f.motion,
+            truth: Some(PoseSpec::from(f.world_from_robot)),
+        });
+        progress(k + 1, frames.len());
     }
+    Dataset::write_world(out, &scene.world)?;
+    let manifest = Manifest {
+        format: FORMAT_VERSION.into(),
+        name: scene.name.clone(),
+        camera: CameraSpec {
+            width: camera.width,
+            height: camera.height,
+            ipm,
+            pinhole: Some(PinholeSpec {
+                fx: camera.fx,
+                fy: camera.fy,
+                cx: camera.cx,
+                cy: camera.cy,
+                height: camera.height_m,
+                tilt_deg: camera.tilt_rad.to_degrees(),
+            }),
+            mount: Some(MountSpec {
+                forward: camera.mount_forward_m,
+                left: camera.mount_left_m,
+            }),
+        },
+        max_range: scene.max_range,
+        frames: specs,
+    };
+    // The manifest goes last: a dataset folder with a manifest is complete.
+    Dataset::write_manifest(out, &manifest)?;
+    Ok(manifest)
 }

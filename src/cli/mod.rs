@@ -1,0 +1,113 @@
+//! Command-line parsing and dispatch.
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+
+mod camera;
+mod render;
+
+/// Maps from a cheap camera: Radial Obstacle Profiles, vision-based
+/// pirouettes and occupancy grids.
+#[derive(Parser, Debug)]
+#[command(name = "pirouette", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render the built-in example dataset and run the pipeline on it.
+    Example(render::ExampleArgs),
+    /// Render a scene (built-in name or JSON scene file) into a dataset.
+    Render(render::RenderArgs),
+    /// Compare the paper's camera model with the pinhole model of a dataset.
+    Camera(camera::CameraArgs),
+    /// Radial Obstacle Profiles of every frame of a dataset.
+    Profile(NotYet),
+    /// Verified turns and 360° radial sweeps of a dataset.
+    Sweep(NotYet),
+    /// Build the occupancy grid map of a dataset or laser log.
+    Map(NotYet),
+    /// Place index: build it from datasets.
+    #[command(subcommand)]
+    Places(PlacesCommand),
+    /// Localise the sweeps of a dataset against a place index.
+    Localise(NotYet),
+    /// Pose graphs in g2o format.
+    #[command(subcommand)]
+    Graph(GraphCommand),
+    /// Evaluate results against ground truth.
+    #[command(subcommand)]
+    Eval(EvalCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum PlacesCommand {
+    /// Build a place index from one or more datasets.
+    Build(NotYet),
+}
+
+#[derive(Subcommand, Debug)]
+enum GraphCommand {
+    /// Optimise a 2D pose graph.
+    Optimise(NotYet),
+}
+
+#[derive(Subcommand, Debug)]
+enum EvalCommand {
+    /// Profiles against truth/rop.
+    Profile(NotYet),
+    /// Verified turns against true headings.
+    Sweep(NotYet),
+    /// Trajectory and map against truth.
+    Map(NotYet),
+}
+
+/// Arguments of a command this version does not provide yet.
+#[derive(clap::Args, Debug)]
+struct NotYet {
+    /// Arguments (not read).
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
+    rest: Vec<String>,
+}
+
+/// Runs the command line.
+pub fn run() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Example(a) => render::example(a),
+        Command::Render(a) => render::render(a),
+        Command::Camera(a) => camera::camera(a),
+        Command::Profile(_) => not_yet("profile"),
+        Command::Sweep(_) => not_yet("sweep"),
+        Command::Map(_) => not_yet("map"),
+        Command::Places(PlacesCommand::Build(_)) => not_yet("places build"),
+        Command::Localise(_) => not_yet("localise"),
+        Command::Graph(GraphCommand::Optimise(_)) => not_yet("graph optimise"),
+        Command::Eval(EvalCommand::Profile(_)) => not_yet("eval profile"),
+        Command::Eval(EvalCommand::Sweep(_)) => not_yet("eval sweep"),
+        Command::Eval(EvalCommand::Map(_)) => not_yet("eval map"),
+    }
+}
+
+fn not_yet(cmd: &str) -> Result<()> {
+    bail!("`pirouette {cmd}` is not available in this version yet")
+}
+
+/// Opens a dataset, with the path in the error.
+pub(crate) fn open_dataset(path: &std::path::Path) -> Result<pirouette::io::Dataset> {
+    pirouette::io::Dataset::open(path).with_context(|| format!("cannot open dataset {}", path.display()))
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+pub(crate) fn progress(len: usize, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>10} [{bar:30}] {pos}/{len} {elapsed}")
+            .expect("template is valid")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
+}

@@ -1,0 +1,122 @@
+//! `pirouette render` and `pirouette example`.
+
+use anyhow::{Context, Result};
+use pirouette::io::{Dataset, Motion};
+use pirouette::sim::{render_dataset, Scene, BUILTIN_SCENES};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `pirouette render`.
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// A built-in scene (field-pirouette, field-multi, room-multi) or a JSON scene file.
+    scene: String,
+    /// Folder to write the dataset into.
+    #[arg(long)]
+    out: PathBuf,
+    /// Seed of motion errors, floor pattern, specks and noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// Arguments of `pirouette example`.
+#[derive(clap::Args, Debug)]
+pub struct ExampleArgs {
+    /// Folder for the rendered example and the results.
+    #[arg(long, default_value = "out/example")]
+    out: PathBuf,
+}
+
+fn load_scene(name: &str) -> Result<Scene> {
+    if let Some(s) = Scene::builtin(name) {
+        return Ok(s);
+    }
+    let path = Path::new(name);
+    if !path.exists() {
+        anyhow::bail!(
+            "{name}: no such scene file, and not a built-in scene ({})",
+            BUILTIN_SCENES.join(", ")
+        );
+    }
+    Ok(Scene::from_file(path)?)
+}
+
+fn render_with_progress(scene: &Scene, seed: u64, out: &Path) -> Result<Dataset> {
+    let bar = super::progress(0, "render");
+    render_dataset(scene, seed, out, |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .with_context(|| format!("rendering into {}", out.display()))?;
+    bar.finish_and_clear();
+    super::open_dataset(out)
+}
+
+/// Prints what a dataset holds.
+pub fn summary(ds: &Dataset) {
+    let m = &ds.manifest;
+    let sweeps = m
+        .frames
+        .iter()
+        .map(|f| f.sweep)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let (mut turns, mut forward_m) = (0, 0.0);
+    for f in &m.frames {
+        match f.motion {
+            Some(Motion::Turn { .. }) => turns += 1,
+            Some(Motion::Forward { forward }) => forward_m += forward,
+            None => {}
+        }
+    }
+    println!("dataset   {} ({})", m.name, ds.root.display());
+    println!(
+        "frames    {} in {} sweeps; {} turns, {:.2} m of forward moves",
+        m.frames.len(),
+        sweeps,
+        turns,
+        forward_m
+    );
+    println!(
+        "camera    {}x{}, {} model by default, max range {:.2} m",
+        m.camera.width,
+        m.camera.height,
+        if m.camera.pinhole.is_some() {
+            "pinhole"
+        } else {
+            "paper"
+        },
+        m.max_range
+    );
+    if let Ok(Some(w)) = ds.world() {
+        println!(
+            "truth     scene with {} obstacles, true poses and profiles",
+            w.obstacles.len()
+        );
+    }
+}
+
+/// `pirouette render`.
+pub fn render(a: RenderArgs) -> Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let ds = render_with_progress(&scene, a.seed, &a.out)?;
+    summary(&ds);
+    Ok(())
+}
+
+/// The built-in example: the multi-sweep soccer field.
+pub const EXAMPLE_SCENE: &str = "field-multi";
+/// Its seed.
+pub const EXAMPLE_SEED: u64 = 2004;
+
+/// `pirouette example`.
+pub fn example(a: ExampleArgs) -> Result<()> {
+    let scene = Scene::builtin(EXAMPLE_SCENE).expect("the example scene is built in");
+    let dataset_dir = a.out.join("dataset");
+    let ds = render_with_progress(&scene, EXAMPLE_SEED, &dataset_dir)?;
+    summary(&ds);
+    println!(
+        "\nrendered frames are in {}",
+        dataset_dir.join("frames").display()
+    );
+    Ok(())
+}

@@ -1,0 +1,27 @@
+//! Pirouette: maps from a cheap camera, by vision-based pirouettes and
+//! Radial Obstacle Profiles.
+//!
+//! This package is the `pirouette` command and a thin facade over the
+//! library crates:
+//! - [`geom`]: SE(2) poses and angles;
+//! - [`camera`]: the paper's IPM and the pinhole model, pixel ↔ floor tables;
+//! - [`profile`]: the Radial Obstacle Profile;
+//! - [`io`]: the `rop-dataset/1` format and other files;
+//! - [`sim`]: the renderer of scenes into datasets.
+//!
+//! ```no_run
+//! use pirouette::io::Dataset;
+//! let ds = Dataset::open("datasets/field-pirouette".as_ref())?;
+//! let camera = ds.camera(None)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![deny(missing_docs)]
+
+pub use pirouette_camera as camera;
+pub use pirouette_geom as geom;
+pub use pirouette_io as io;
+pub use pirouette_profile as profile;
+pub use pirouette_sim as sim;
+pub use pirouette_vision as vision;
+
+pub mod camera_report;

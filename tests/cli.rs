@@ -1,0 +1,85 @@
+//! The command line: contract, help and errors.
+
+use crate::util::{pirouette, shared};
+
+#[test]
+fn every_command_has_help() {
+    for args in [
+        vec!["--help"],
+        vec!["render", "--help"],
+        vec!["camera", "--help"],
+        vec!["example", "--help"],
+        vec!["profile", "--help"],
+        vec!["eval", "--help"],
+    ] {
+        let out = pirouette(&args);
+        assert!(out.status.success(), "{args:?}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("Usage"), "{args:?}");
+    }
+}
+
+#[test]
+fn bad_input_is_a_one_line_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-dataset");
+    let out = pirouette(&["camera", missing.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("no-such-dataset"), "{err}");
+
+    let bad = dir.path().join("bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    std::fs::write(bad.join("dataset.json"), "{\"format\": \"rop-dataset/1\", ").unwrap();
+    let out = pirouette(&["camera", bad.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("dataset.json") && err.contains("bad JSON"), "{err}");
+
+    let scene = dir.path().join("scene.json");
+    std::fs::write(&scene, "[]").unwrap();
+    let out = pirouette(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("scene.json"));
+}
+
+#[test]
+fn camera_report_shows_models_agree_near_and_diverge_far() {
+    let Some(shared) = shared("camera_report_shows_models_agree_near_and_diverge_far") else {
+        return;
+    };
+    let ds = shared.join("datasets").join("field-pirouette");
+    let out = pirouette(&["camera", ds.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let bands: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(bands.len(), 12);
+    let gap = |b: &serde_json::Value| b["median_gap_m"].as_f64().unwrap();
+    // Near the centre scanline (where d and w were taped) the models agree
+    // within a centimetre; at the top, the angle-linear rows drift further.
+    assert!(gap(&bands[6]) < 0.01, "{}", bands[6]);
+    assert!(
+        gap(&bands[0]) > 3.0 * gap(&bands[6]),
+        "{} vs {}",
+        bands[0],
+        bands[6]
+    );
+    assert!(
+        bands[0]["median_range_bias"].as_f64().unwrap() < 0.0,
+        "paper ranges run low far away"
+    );
+}
+
+#[test]
+fn commands_not_yet_available_fail_clearly() {
+    let out = pirouette(&["map", "x", "--out", "y"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not available"));
+}

@@ -1,0 +1,7 @@
+//! End-to-end tests of the pipeline and the `pirouette` binary.
+
+mod util;
+
+mod cli;
+mod datasets;
+mod truth;

@@ -1,0 +1,65 @@
+//! Helpers shared by the end-to-end tests.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+/// The shared folder from `PIROUETTE_SHARED`, or `None` (printing that the
+/// caller skips) when it is unset.
+pub fn shared(test: &str) -> Option<PathBuf> {
+    match std::env::var_os("PIROUETTE_SHARED") {
+        Some(p) => {
+            let p = PathBuf::from(p);
+            assert!(
+                p.join("datasets").is_dir(),
+                "PIROUETTE_SHARED={} has no datasets/",
+                p.display()
+            );
+            Some(p)
+        }
+        None => {
+            eprintln!("{test}: skipped, PIROUETTE_SHARED is unset");
+            None
+        }
+    }
+}
+
+/// The camera datasets under `shared/datasets`, sorted.
+pub fn shared_datasets(shared: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(shared.join("datasets"))
+        .expect("shared/datasets is readable")
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.join("dataset.json").is_file())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Runs the `pirouette` binary.
+pub fn pirouette(args: &[&str]) -> Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pirouette"))
+        .args(args)
+        .output()
+        .expect("the pirouette binary runs")
+}
+
+/// Renders a built-in scene once per test process into a temporary folder.
+pub fn rendered(scene: &str, seed: u64) -> PathBuf {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<(String, u64), PathBuf>>> = OnceLock::new();
+    static ROOT: OnceLock<tempfile::TempDir> = OnceLock::new();
+    let root = ROOT.get_or_init(|| tempfile::tempdir().expect("temporary folder"));
+    let mut cache = CACHE
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    cache
+        .entry((scene.to_string(), seed))
+        .or_insert_with(|| {
+            let out = root.path().join(format!("{scene}-{seed}"));
+            let s = pirouette::sim::Scene::builtin(scene).expect("built-in scene");
+            pirouette::sim::render_dataset(&s, seed, &out, |_, _| {}).expect("render succeeds");
+            out
+        })
+        .clone()
+}
