@@ -7,7 +7,9 @@
 //! - [`camera`]: the paper's IPM and the pinhole model, pixel ↔ floor tables;
 //! - [`profile`]: the Radial Obstacle Profile;
 //! - [`io`]: the `rop-dataset/1` format and other files;
-//! - [`sim`]: the renderer of scenes into datasets.
+//! - [`vision`]: floor segmentation and ROPs from images;
+//! - [`sim`]: the renderer of scenes into datasets;
+//! - [`pipeline`]: whole-dataset runs; [`eval`]: scores against truth.
 //!
 //! ```no_run
 //! use pirouette::io::Dataset;
@@ -25,3 +27,6 @@ pub use pirouette_sim as sim;
 pub use pirouette_vision as vision;
 
 pub mod camera_report;
+pub mod eval;
+pub mod pipeline;
+pub mod plot;

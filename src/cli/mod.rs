@@ -4,6 +4,8 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 mod camera;
+mod plots;
+mod profile;
 mod render;
 
 /// Maps from a cheap camera: Radial Obstacle Profiles, vision-based
@@ -24,7 +26,7 @@ enum Command {
     /// Compare the paper's camera model with the pinhole model of a dataset.
     Camera(camera::CameraArgs),
     /// Radial Obstacle Profiles of every frame of a dataset.
-    Profile(NotYet),
+    Profile(profile::ProfileArgs),
     /// Verified turns and 360° radial sweeps of a dataset.
     Sweep(NotYet),
     /// Build the occupancy grid map of a dataset or laser log.
@@ -56,8 +58,9 @@ enum GraphCommand {
 
 #[derive(Subcommand, Debug)]
 enum EvalCommand {
-    /// Profiles against truth/rop.
-    Profile(NotYet),
+    /// Profiles against truth/rop: median |relative range error|, share of
+    /// truth bins within 10 %, missed, and false ranges on obstacle-free bins.
+    Profile(profile::EvalProfileArgs),
     /// Verified turns against true headings.
     Sweep(NotYet),
     /// Trajectory and map against truth.
@@ -79,13 +82,13 @@ pub fn run() -> Result<()> {
         Command::Example(a) => render::example(a),
         Command::Render(a) => render::render(a),
         Command::Camera(a) => camera::camera(a),
-        Command::Profile(_) => not_yet("profile"),
+        Command::Profile(a) => profile::profile(a),
         Command::Sweep(_) => not_yet("sweep"),
         Command::Map(_) => not_yet("map"),
         Command::Places(PlacesCommand::Build(_)) => not_yet("places build"),
         Command::Localise(_) => not_yet("localise"),
         Command::Graph(GraphCommand::Optimise(_)) => not_yet("graph optimise"),
-        Command::Eval(EvalCommand::Profile(_)) => not_yet("eval profile"),
+        Command::Eval(EvalCommand::Profile(a)) => profile::eval_profile(a),
         Command::Eval(EvalCommand::Sweep(_)) => not_yet("eval sweep"),
         Command::Eval(EvalCommand::Map(_)) => not_yet("eval map"),
     }

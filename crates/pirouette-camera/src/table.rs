@@ -110,6 +110,27 @@ impl FloorTable {
             .flatten()
     }
 
+    /// The bearings (radians) spanned by the floor the camera sees: the
+    /// extremes over every floor pixel. `None` when no pixel sees floor.
+    pub fn bearing_span(&self) -> Option<(f64, f64)> {
+        let (lo, hi) = self
+            .polar
+            .iter()
+            .filter(|p| p[0].is_finite())
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p[1]), hi.max(p[1]))
+            });
+        (lo <= hi).then_some((lo as f64, hi as f64))
+    }
+
+    /// The topmost row of column `u` that sees floor, if any.
+    ///
+    /// # Panics
+    /// When `u` lies outside the image.
+    pub fn top_floor_row(&self, u: u32) -> Option<u32> {
+        (0..self.height).find(|&v| self.xy[self.index(u, v)][0].is_finite())
+    }
+
     /// The floor point at column `u` and fractional row `v` (sub-pixel),
     /// interpolated linearly between the two nearest rows. `None` above the
     /// horizon or outside the image.
@@ -171,6 +192,13 @@ mod tests {
         // Tilt 0.2 rad with fy 27.7 puts the horizon at v ≈ 5.9.
         assert!(floor > 0 && sky > 0, "floor {floor}, sky {sky}");
         assert!(t.floor_checked(32, 0).is_none());
+        let top = t.top_floor_row(5).unwrap();
+        assert!(t.floor(5, top).is_some() && (top == 0 || t.floor(5, top - 1).is_none()));
+        let (lo, hi) = t.bearing_span().unwrap();
+        assert!(
+            lo < 0.0 && hi > 0.0 && (lo + hi).abs() < 1e-6,
+            "symmetric camera: {lo} {hi}"
+        );
     }
 
     #[test]

@@ -28,12 +28,16 @@ mod truth;
 pub use motion::{plan_route, PlannedFrame};
 pub use render::Renderer;
 pub use scene::{CameraSetup, Look, MotionErrors, Route, Scene, SimError, BUILTIN_SCENES};
-pub use truth::{floor_view_bearings, true_profile, RAYS_PER_BIN};
+pub use truth::{true_profile, RAYS_PER_BIN};
 
+use pirouette_camera::FloorTable;
 use pirouette_io::{
     CameraSpec, Dataset, FrameSpec, Manifest, MountSpec, PinholeSpec, PoseSpec, TruthRop, FORMAT_VERSION,
 };
 use std::path::Path;
+
+/// Bin width of the true profiles written to `truth/rop`, degrees.
+pub const TRUTH_BIN_WIDTH_DEG: f64 = 1.0;
 
 /// Renders `scene` with `seed` into a complete dataset in `out`: manifest,
 /// frames, `truth/world.json` and `truth/rop`. `progress(done, total)` is
@@ -49,6 +53,9 @@ pub fn render_dataset(
     let ipm = camera.ipm_measurements().ok_or(SimError::Invalid {
         problem: "camera: the centre scanline does not see the floor (tilt too small)".into(),
     })?;
+    let view = FloorTable::new(&camera).bearing_span().ok_or(SimError::Invalid {
+        problem: "camera: no pixel sees the floor".into(),
+    })?;
     let frames = plan_route(scene, seed);
     let renderer = Renderer::new(scene, seed);
     let mut specs = Vec::with_capacity(frames.len());
@@ -61,7 +68,8 @@ pub fn render_dataset(
             &camera,
             &f.world_from_robot,
             scene.max_range,
-            1f64.to_radians(),
+            TRUTH_BIN_WIDTH_DEG.to_radians(),
+            view,
         );
         Dataset::write_truth_rop(out, &image_rel, &TruthRop::from_rop(&rop))?;
         specs.push(FrameSpec {

@@ -1,6 +1,8 @@
 //! True radial profiles by 2D ray casting of the scene.
 
 use pirouette_camera::CameraModel;
+#[cfg(doc)]
+use pirouette_camera::FloorTable;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_io::World;
 use pirouette_profile::Rop;
@@ -8,23 +10,9 @@ use pirouette_profile::Rop;
 /// Rays cast per bin; the bin holds the nearest obstacle over them.
 pub const RAYS_PER_BIN: usize = 9;
 
-/// The bearings (radians, robot frame) spanned by the floor the camera
-/// sees: the extremes over the image border's floor pixels.
-pub fn floor_view_bearings(camera: &impl CameraModel) -> (f64, f64) {
-    let (m, n) = (camera.width(), camera.height());
-    let border = (0..m)
-        .flat_map(|u| [(u, 0), (u, n - 1)])
-        .chain((0..n).flat_map(|v| [(0, v), (m - 1, v)]));
-    border
-        .filter_map(|(u, v)| camera.pixel_to_floor(u as f64, v as f64))
-        .map(Point2::bearing)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), b| {
-            (lo.min(b), hi.max(b))
-        })
-}
-
 /// The true profile seen from `world_from_robot`: bins of `bin_width_rad`
-/// centred on its multiples over the camera's floor view; each holds the
+/// centred on its multiples over `view_bearings_rad` (the camera's floor
+/// view, [`FloorTable::bearing_span`]); each holds the
 /// nearest obstacle over [`RAYS_PER_BIN`] rays cast from the robot centre,
 /// counting only hits whose floor point lies inside the image. Unseen bins
 /// are NaN; ranges beyond `max_range_m` are kept (they are not reliable).
@@ -34,8 +22,9 @@ pub fn true_profile(
     world_from_robot: &Pose2,
     max_range_m: f64,
     bin_width_rad: f64,
+    view_bearings_rad: (f64, f64),
 ) -> Rop {
-    let (lo, hi) = floor_view_bearings(camera);
+    let (lo, hi) = view_bearings_rad;
     let mut rop = Rop::covering(lo, hi, bin_width_rad, max_range_m as f32)
         .expect("camera view and bin width are valid");
     let origin = [world_from_robot.x, world_from_robot.y];

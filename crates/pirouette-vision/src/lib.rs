@@ -1,2 +1,39 @@
 //! Floor segmentation and Radial Obstacle Profiles from camera images.
+//!
+//! - [`RopExtractor`]: built once per camera (lookup tables), it turns an
+//!   RGB image into per-column floor/obstacle boundaries
+//!   ([`RopExtractor::boundaries`]) and into a [`Rop`]
+//!   ([`RopExtractor::rop`]).
+//! - [`VisionConfig`]: the segmentation and profile settings, each default
+//!   documented.
+//! - [`ColumnBoundary`]: what one image column shows.
+//!
+//! The floor model comes from each image itself: every column starts from
+//! its own bottom rows and follows the floor upwards with a slowly adapting
+//! reference, so brightness that changes across the floor (vignetting,
+//! uneven light, tonal patches) is followed while a step to an obstacle is
+//! not. Thresholds scale with the noise measured in the image. A candidate
+//! boundary is accepted only if the non-floor run above it is as tall as an
+//! obstacle of [`VisionConfig::min_obstacle_height_m`] would appear there,
+//! which rejects flat specks (lint, reflections) by geometry.
+//!
+//! ```
+//! use pirouette_camera::PinholeModel;
+//! use pirouette_vision::{RopExtractor, VisionConfig};
+//! let cam = PinholeModel { width: 64, height: 48, fx: 55.4, fy: 55.4, cx: 31.5, cy: 23.5,
+//!     height_m: 0.1, tilt_rad: 25f64.to_radians(), mount_forward_m: 0.0, mount_left_m: 0.0 };
+//! let extractor = RopExtractor::new(&cam, 0.9, VisionConfig::default());
+//! let floor_only = image::RgbImage::from_pixel(64, 48, image::Rgb([40, 40, 45]));
+//! let rop = extractor.rop(&floor_only)?;
+//! assert!((0..rop.len()).all(|i| rop.reliable(i).is_none()));
+//! # Ok::<(), pirouette_vision::VisionError>(())
+//! ```
 #![deny(missing_docs)]
+
+mod boundary;
+mod extract;
+
+pub use boundary::ColumnBoundary;
+pub use extract::{RopExtractor, VisionConfig, VisionError};
+#[doc(no_inline)]
+pub use pirouette_profile::Rop;

@@ -1,0 +1,685 @@
+//! Image → boundaries → ROP.
+
+use crate::ColumnBoundary;
+use pirouette_camera::{CameraModel, FloorTable};
+use pirouette_profile::filter::{self, OutlierFilter};
+use pirouette_profile::{ColourTag, Rop};
+
+/// Errors of the vision front end.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum VisionError {
+    /// The image does not have the camera's size.
+    #[error("image is {found_width}x{found_height}, the camera is {width}x{height}")]
+    WrongSize {
+        /// The camera's width.
+        width: u32,
+        /// The camera's height.
+        height: u32,
+        /// The image's width.
+        found_width: u32,
+        /// The image's height.
+        found_height: u32,
+    },
+    /// The settings cannot be used.
+    #[error("vision settings: {problem}")]
+    BadConfig {
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// Settings of floor segmentation and profile building.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisionConfig {
+    /// Width of the profile's bins, radians.
+    pub bin_width_rad: f64,
+    /// The lowest obstacle to detect, metres. Anything flatter (lint,
+    /// reflections, scratches) is floor.
+    pub min_obstacle_height_m: f64,
+    /// The smallest relative brightness step, against the floor predicted
+    /// from below, that counts as leaving the floor when the chromaticity
+    /// stays the same.
+    pub min_brightness_step: f32,
+    /// The smallest relative change of chromaticity (any channel's share,
+    /// after removing the brightness step) that counts as leaving the floor.
+    pub min_chroma_step: f32,
+    /// Steps must also exceed this many standard deviations of the image's
+    /// own noise (measured per image).
+    pub noise_sigmas: f32,
+    /// How fast the floor reference's level follows the floor up a column,
+    /// per row.
+    pub adapt_rate: f32,
+    /// How fast the floor reference's trend (change per row) follows.
+    pub trend_rate: f32,
+    /// Share of non-floor rows needed over a candidate obstacle's expected
+    /// height.
+    pub run_fraction: f32,
+    /// Outlier filter over the profile's bins.
+    pub filter: OutlierFilter,
+}
+
+impl Default for VisionConfig {
+    /// - `bin_width_rad`: 1°, the paper's choice;
+    /// - `min_obstacle_height_m`: 2 cm, well above a speck's thickness and
+    ///   below the lowest obstacle a small robot must avoid;
+    /// - `min_brightness_step`: 18 %. Shading, soft shadows and the tonal
+    ///   patches of one floor material change brightness but hardly
+    ///   chromaticity, by up to about a tenth across an edge; a different
+    ///   surface of the same hue must differ by more to be seen;
+    /// - `min_chroma_step`: 5 %: a change of material shows in
+    ///   chromaticity, which lighting leaves nearly unchanged;
+    /// - `noise_sigmas`: 5, so noise alone almost never crosses it;
+    /// - `adapt_rate`: 0.25 per row (a memory of about four rows);
+    /// - `trend_rate`: 0.1 per row: the brightness trend of the floor
+    ///   (vignetting, light fall-off) changes slowly;
+    /// - `run_fraction`: 0.75, tolerating noise inside an obstacle;
+    /// - `filter`: the robust 3-bin median.
+    fn default() -> Self {
+        Self {
+            bin_width_rad: 1f64.to_radians(),
+            min_obstacle_height_m: 0.02,
+            min_brightness_step: 0.18,
+            min_chroma_step: 0.05,
+            noise_sigmas: 5.0,
+            adapt_rate: 0.25,
+            trend_rate: 0.1,
+            run_fraction: 0.75,
+            filter: OutlierFilter::Median3,
+        }
+    }
+}
+
+impl VisionConfig {
+    fn check(&self) -> Result<(), VisionError> {
+        let bad = |p: &str| Err(VisionError::BadConfig { problem: p.into() });
+        if !(self.bin_width_rad.is_finite() && self.bin_width_rad > 0.0) {
+            return bad("bin width must be positive");
+        }
+        if !(self.min_obstacle_height_m.is_finite() && self.min_obstacle_height_m >= 0.0) {
+            return bad("min obstacle height must be non-negative");
+        }
+        let unit = |x: f32| x > 0.0 && x <= 1.0;
+        if !(unit(self.adapt_rate) && unit(self.trend_rate) && unit(self.run_fraction)) {
+            return bad("adapt rate, trend rate and run fraction must be in (0, 1]");
+        }
+        if !(self.min_brightness_step >= 0.0 && self.min_chroma_step >= 0.0 && self.noise_sigmas >= 0.0) {
+            return bad("brightness and chroma steps and noise multiples must be non-negative");
+        }
+        Ok(())
+    }
+}
+
+/// Turns camera images into boundaries and profiles. Built once per camera:
+/// the floor table and the expected obstacle heights in rows are
+/// precomputed.
+///
+/// # Memory
+/// About 14 bytes per pixel (1 MiB for 320 × 240).
+#[derive(Debug, Clone)]
+pub struct RopExtractor {
+    table: FloorTable,
+    width: u32,
+    height: u32,
+    max_range_m: f32,
+    config: VisionConfig,
+    /// Per pixel: rows an obstacle of the minimum height standing on that
+    /// pixel's floor point spans (0 above the horizon).
+    run_rows: Vec<u16>,
+    /// Per column: the topmost floor row, or `height` when none.
+    top_floor: Vec<u32>,
+    /// The floor view's bearing span.
+    view_rad: (f64, f64),
+}
+
+/// Rows of the seed at the bottom of each column.
+const SEED_ROWS: u32 = 6;
+
+/// Decides whether a pixel is floor, given the floor colour predicted there.
+#[derive(Debug, Clone, Copy)]
+struct Classifier {
+    /// Noise threshold, 8-bit levels (a multiple of the image's σ).
+    noise: f32,
+    brightness_step: f32,
+    chroma_step: f32,
+}
+
+impl Classifier {
+    /// Floor when the brightness step and the chromaticity change, each
+    /// relative to its own tolerance (widened to the noise), lie inside the
+    /// unit ellipse: `(Δb/τ_b)² + max_c (Δc/τ_c)² ≤ 1`. A surface that
+    /// differs a little in both brightness and hue is caught, while a
+    /// larger change of brightness alone (shading, tonal patches) is not.
+    #[inline]
+    fn is_floor(&self, p: &[f32; 3], q: &[f32; 3]) -> bool {
+        let sum_p = p[0] + p[1] + p[2];
+        let sum_q = (q[0] + q[1] + q[2]).max(0.0);
+        let eb = (sum_p - sum_q) / (self.brightness_step * sum_q).max(self.noise * 3f32.sqrt());
+        if eb * eb > 1.0 {
+            return false;
+        }
+        let b = if sum_q > 0.0 { sum_p / sum_q } else { 1.0 };
+        let mut ec2 = 0f32;
+        for c in 0..3 {
+            let expect = b * q[c];
+            let ec = (p[c] - expect) / (self.chroma_step * expect).max(self.noise);
+            ec2 = ec2.max(ec * ec);
+        }
+        eb * eb + ec2 <= 1.0
+    }
+}
+
+/// The floor's colour followed up a column: a level and a trend per row
+/// (Holt's linear smoothing), so a floor that brightens steadily upwards
+/// is predicted without lag.
+#[derive(Debug, Clone, Copy)]
+struct FloorTrack {
+    level: [f32; 3],
+    trend: [f32; 3],
+}
+
+impl FloorTrack {
+    /// A least-squares line through the seed rows (bottom first); the level
+    /// is the line's value at the last (topmost) seed row.
+    fn seed(rows: impl Iterator<Item = [f32; 3]>) -> Self {
+        let rows: Vec<[f32; 3]> = rows.collect();
+        let k = rows.len() as f32;
+        let mean_x = (k - 1.0) / 2.0;
+        let var_x: f32 = (0..rows.len())
+            .map(|i| (i as f32 - mean_x).powi(2))
+            .sum::<f32>()
+            .max(1e-6);
+        let mut level = [0f32; 3];
+        let mut trend = [0f32; 3];
+        for c in 0..3 {
+            let mean_y = rows.iter().map(|p| p[c]).sum::<f32>() / k;
+            let cov: f32 = rows
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i as f32 - mean_x) * (p[c] - mean_y))
+                .sum();
+            trend[c] = if rows.len() > 1 { cov / var_x } else { 0.0 };
+            level[c] = mean_y + trend[c] * (k - 1.0 - mean_x);
+        }
+        Self { level, trend }
+    }
+
+    /// The floor colour expected at the next row up.
+    fn predict(&self) -> [f32; 3] {
+        [
+            self.level[0] + self.trend[0],
+            self.level[1] + self.trend[1],
+            self.level[2] + self.trend[2],
+        ]
+    }
+
+    /// Takes in a floor pixel.
+    fn update(&mut self, p: &[f32; 3], rate: f32, trend_rate: f32) {
+        for c in 0..3 {
+            let pred = self.level[c] + self.trend[c];
+            let level = pred + rate * (p[c] - pred);
+            self.trend[c] += trend_rate * (level - self.level[c] - self.trend[c]);
+            self.level[c] = level;
+        }
+    }
+
+    /// Steps over a pixel that is not floor.
+    fn coast(&mut self) {
+        for c in 0..3 {
+            self.level[c] += self.trend[c];
+        }
+    }
+}
+/// Rows each side of a boundary used to measure floor and obstacle levels.
+const LEVEL_OFFSET: u32 = 3;
+
+impl RopExtractor {
+    /// Precomputes the tables for `camera` with soft range limit
+    /// `max_range_m`.
+    ///
+    /// # Panics
+    /// When `config` is invalid; see [`RopExtractor::try_new`].
+    pub fn new(camera: &(impl CameraModel + ?Sized), max_range_m: f64, config: VisionConfig) -> Self {
+        Self::try_new(camera, max_range_m, config).expect("valid vision settings")
+    }
+
+    /// As [`RopExtractor::new`], with invalid settings as an error.
+    pub fn try_new(
+        camera: &(impl CameraModel + ?Sized),
+        max_range_m: f64,
+        config: VisionConfig,
+    ) -> Result<Self, VisionError> {
+        config.check()?;
+        if !(max_range_m.is_finite() && max_range_m > 0.0) {
+            return Err(VisionError::BadConfig {
+                problem: format!("max range {max_range_m} must be positive"),
+            });
+        }
+        let table = FloorTable::new(camera);
+        let (width, height) = (camera.width(), camera.height());
+        let mut run_rows = vec![0u16; width as usize * height as usize];
+        for v in 0..height {
+            for u in 0..width {
+                let Some(p) = table.floor(u, v) else { continue };
+                let top = camera.project([p.x, p.y, config.min_obstacle_height_m]);
+                // An obstacle at least as tall as the camera reaches the
+                // horizon: it spans every row above.
+                let rows = match top {
+                    Some((_, vt)) if vt.is_finite() => (v as f64 - vt).max(1.0),
+                    _ => v as f64 + 1.0,
+                };
+                run_rows[(v * width + u) as usize] = rows.min(u16::MAX as f64).round() as u16;
+            }
+        }
+        let top_floor = (0..width)
+            .map(|u| table.top_floor_row(u).unwrap_or(height))
+            .collect();
+        let view_rad = table.bearing_span().unwrap_or((0.0, 0.0));
+        Ok(Self {
+            table,
+            width,
+            height,
+            max_range_m: max_range_m as f32,
+            config,
+            run_rows,
+            top_floor,
+            view_rad,
+        })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &VisionConfig {
+        &self.config
+    }
+
+    /// The floor table.
+    pub fn table(&self) -> &FloorTable {
+        &self.table
+    }
+
+    fn check_size(&self, img: &image::RgbImage) -> Result<(), VisionError> {
+        if img.dimensions() != (self.width, self.height) {
+            return Err(VisionError::WrongSize {
+                width: self.width,
+                height: self.height,
+                found_width: img.width(),
+                found_height: img.height(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The boundary of every column, left to right.
+    pub fn boundaries(&self, img: &image::RgbImage) -> Result<Vec<ColumnBoundary>, VisionError> {
+        self.check_size(img)?;
+        let px = img.as_raw();
+        let sigma = noise_sigma(px, self.width, self.height);
+        Ok((0..self.width).map(|u| self.scan_column(px, u, sigma)).collect())
+    }
+
+    /// The profile of an image: boundaries through the floor table into
+    /// bins, joined between neighbouring columns, then filtered.
+    pub fn rop(&self, img: &image::RgbImage) -> Result<Rop, VisionError> {
+        let boundaries = self.boundaries(img)?;
+        Ok(self.rop_from_boundaries(&boundaries))
+    }
+
+    /// The profile from column boundaries (see [`RopExtractor::rop`]).
+    pub fn rop_from_boundaries(&self, boundaries: &[ColumnBoundary]) -> Rop {
+        let (lo, hi) = self.view_rad;
+        let mut rop = Rop::covering(lo, hi, self.config.bin_width_rad, self.max_range_m)
+            .expect("bin width checked and the view span is finite");
+        // Each column's floor point at its boundary (or its farthest floor
+        // point when clear), as (bearing, range, colour, is_obstacle).
+        let points: Vec<Option<(f64, f32, Option<ColourTag>, bool)>> = boundaries
+            .iter()
+            .enumerate()
+            .map(|(u, b)| match *b {
+                ColumnBoundary::Obstacle { row, colour } => {
+                    let p = self
+                        .table
+                        .floor_at_row(u as u32, row.min((self.height - 1) as f32))?;
+                    Some((p.bearing(), p.norm() as f32, colour, true))
+                }
+                ColumnBoundary::Clear { top_row } => {
+                    let p = self.table.floor(u as u32, top_row)?;
+                    Some((p.bearing(), f32::INFINITY, None, false))
+                }
+                ColumnBoundary::NoFloor => None,
+            })
+            .collect();
+        for (u, p) in points.iter().enumerate() {
+            let Some(p) = p else { continue };
+            rop.insert(p.0, p.1, p.2);
+            // The floor below the boundary is seen and free: bins between
+            // the column's bottom pixel and its boundary are seen.
+            if let Some(bottom) = self.table.floor(u as u32, self.height - 1) {
+                let (a, b) = (bottom.bearing().min(p.0), bottom.bearing().max(p.0));
+                if let (Some(i0), Some(i1)) = (rop.bin_of(a), rop.bin_of(b)) {
+                    for i in i0..=i1 {
+                        rop.insert(rop.bin_centre_rad(i), f32::INFINITY, None);
+                    }
+                }
+            }
+        }
+        // Join neighbouring columns that see the same surface, so that bins
+        // narrower than a column still get a range.
+        for pair in points.windows(2) {
+            let (Some(a), Some(b)) = (pair[0], pair[1]) else {
+                continue;
+            };
+            if !(a.3 && b.3) || (a.1 - b.1).abs() > 0.05 * a.1.min(b.1) {
+                continue;
+            }
+            let (first, last) = if a.0 <= b.0 { (a, b) } else { (b, a) };
+            let Some(i0) = rop.bin_of(first.0) else { continue };
+            let Some(i1) = rop.bin_of(last.0) else { continue };
+            for i in i0 + 1..i1 {
+                let c = rop.bin_centre_rad(i);
+                let t = ((c - first.0) / (last.0 - first.0)) as f32;
+                let r = first.1 + t * (last.1 - first.1);
+                let colour = if t < 0.5 { first.2 } else { last.2 };
+                rop.insert(c, r, colour);
+            }
+        }
+        filter::apply(&mut rop, self.config.filter);
+        rop
+    }
+
+    /// The floor mask (255 floor, 0 not floor) implied by the boundaries.
+    pub fn floor_mask(&self, boundaries: &[ColumnBoundary]) -> image::GrayImage {
+        let mut mask = image::GrayImage::new(self.width, self.height);
+        for (u, b) in boundaries.iter().enumerate() {
+            let first_floor = match *b {
+                ColumnBoundary::Obstacle { row, .. } => (row + 0.5).ceil().max(0.0) as u32,
+                ColumnBoundary::Clear { top_row } => top_row,
+                ColumnBoundary::NoFloor => self.height,
+            };
+            for v in first_floor..self.height {
+                mask.put_pixel(u as u32, v, image::Luma([255]));
+            }
+        }
+        mask
+    }
+
+    fn scan_column(&self, px: &[u8], u: u32, sigma: f32) -> ColumnBoundary {
+        let (m, n) = (self.width, self.height);
+        let top = self.top_floor[u as usize];
+        if top >= n {
+            return ColumnBoundary::NoFloor;
+        }
+        let pix = |v: u32| smoothed(px, m, u, v);
+        let seed_rows = SEED_ROWS.min(n - top);
+        let mut floor = FloorTrack::seed((n - seed_rows..n).rev().map(pix));
+        if seed_rows == n - top {
+            return ColumnBoundary::Clear { top_row: top };
+        }
+        let classifier = Classifier {
+            noise: self.config.noise_sigmas * sigma,
+            brightness_step: self.config.min_brightness_step,
+            chroma_step: self.config.min_chroma_step,
+        };
+        let is_floor = |p: &[f32; 3], pred: &[f32; 3]| classifier.is_floor(p, pred);
+        let (rate, trend_rate) = (self.config.adapt_rate, self.config.trend_rate);
+        let mut v = n - seed_rows - 1;
+        loop {
+            let p = pix(v);
+            let pred = floor.predict();
+            if is_floor(&p, &pred) {
+                floor.update(&p, rate, trend_rate);
+            } else {
+                // A candidate: is the run above as tall as an obstacle would
+                // be? The floor reference goes on following floor pixels
+                // inside the run, as the scan itself would.
+                let run = self.run_rows[(v * m + u) as usize].max(1) as u32;
+                let lo = (v + 1).saturating_sub(run);
+                let span = v - lo + 1;
+                let mut ahead = floor;
+                let mut off = 0u32;
+                for w in (lo..=v).rev() {
+                    let q = pix(w);
+                    if is_floor(&q, &ahead.predict()) {
+                        ahead.update(&q, rate, trend_rate);
+                    } else {
+                        ahead.coast();
+                        off += 1;
+                    }
+                }
+                if off as f32 >= self.config.run_fraction * span as f32 {
+                    return self.refine(px, u, v, pred);
+                }
+                floor.coast();
+            }
+            if v == top {
+                return ColumnBoundary::Clear { top_row: top };
+            }
+            v -= 1;
+        }
+    }
+
+    /// Sub-pixel row and colour of a boundary first detected at row `v`:
+    /// the share of obstacle in each row of a window around `v`, from the
+    /// levels of floor below and obstacle above, locates the edge without
+    /// blurring it.
+    fn refine(&self, px: &[u8], u: u32, v: u32, floor_ref: [f32; 3]) -> ColumnBoundary {
+        let (m, n) = (self.width, self.height);
+        let pix = |w: u32| smoothed(px, m, u, w);
+        let above: Vec<u32> = (1..=2)
+            .filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1))
+            .collect();
+        let obstacle = if above.is_empty() {
+            pix(v.saturating_sub(1))
+        } else {
+            mean_of(above.iter().map(|&w| pix(w)))
+        };
+        let below: Vec<u32> = (LEVEL_OFFSET..LEVEL_OFFSET + 2)
+            .map(|k| v + k)
+            .filter(|&w| w < n)
+            .collect();
+        let floor = if below.is_empty() {
+            floor_ref
+        } else {
+            mean_of(below.iter().map(|&w| pix(w)))
+        };
+        let diff = [
+            obstacle[0] - floor[0],
+            obstacle[1] - floor[1],
+            obstacle[2] - floor[2],
+        ];
+        let norm2: f32 = diff.iter().map(|d| d * d).sum();
+        let colour = ColourTag::from_rgb(obstacle);
+        if norm2 < 1.0 {
+            return ColumnBoundary::Obstacle {
+                row: v as f32 + 0.5,
+                colour,
+            };
+        }
+        // Window rows v−2 ..= v+2; the obstacle is on top.
+        let mut floor_share = 0.0;
+        let lo = v.saturating_sub(2);
+        let hi = (v + 2).min(n - 1);
+        for w in lo..=hi {
+            let p = pix(w);
+            let a = ((p[0] - floor[0]) * diff[0] + (p[1] - floor[1]) * diff[1] + (p[2] - floor[2]) * diff[2])
+                / norm2;
+            floor_share += 1.0 - a.clamp(0.0, 1.0);
+        }
+        let row = hi as f32 + 0.5 - floor_share;
+        ColumnBoundary::Obstacle {
+            row: row.clamp(lo as f32 - 0.5, hi as f32 + 0.5),
+            colour,
+        }
+    }
+}
+
+fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> [f32; 3] {
+    let (mut s, mut k) = ([0f32; 3], 0);
+    for p in it {
+        for c in 0..3 {
+            s[c] += p[c];
+        }
+        k += 1;
+    }
+    s.map(|x| x / k.max(1) as f32)
+}
+
+/// The pixel at `(u, v)` averaged with its left and right neighbours.
+#[inline]
+fn smoothed(px: &[u8], width: u32, u: u32, v: u32) -> [f32; 3] {
+    let row = (v * width) as usize * 3;
+    let l = row + u.saturating_sub(1) as usize * 3;
+    let c = row + u as usize * 3;
+    let r = row + (u + 1).min(width - 1) as usize * 3;
+    let mut out = [0f32; 3];
+    for k in 0..3 {
+        out[k] = (px[l + k] as f32 + px[c + k] as f32 + px[r + k] as f32) * (1.0 / 3.0);
+    }
+    out
+}
+
+/// Standard deviation of the noise of a 3-pixel average along the scan
+/// direction, from vertical second differences in the bottom rows (which
+/// cancel steady brightness trends), robustly (median absolute value).
+fn noise_sigma(px: &[u8], width: u32, height: u32) -> f32 {
+    const ROWS: u32 = 16;
+    let mut d2 = Vec::with_capacity(2048);
+    let top = height.saturating_sub(ROWS).max(1);
+    for v in (top..height - 1).step_by(2) {
+        for u in (width / 4..3 * width / 4).step_by(3) {
+            let a = smoothed(px, width, u, v - 1);
+            let b = smoothed(px, width, u, v);
+            let c = smoothed(px, width, u, v + 1);
+            for k in 0..3 {
+                d2.push((a[k] - 2.0 * b[k] + c[k]).abs());
+            }
+        }
+    }
+    if d2.is_empty() {
+        return 1.0;
+    }
+    let mid = d2.len() / 2;
+    let (_, med, _) = d2.select_nth_unstable_by(mid, f32::total_cmp);
+    // A second difference of independent values has variance 6σ²; never
+    // below the 8-bit quantisation step's standard deviation.
+    (1.4826 * *med / 6f32.sqrt()).max(0.29)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pirouette_camera::PinholeModel;
+
+    fn cam() -> PinholeModel {
+        PinholeModel {
+            width: 320,
+            height: 240,
+            fx: 277.1281,
+            fy: 277.1281,
+            cx: 159.5,
+            cy: 119.5,
+            height_m: 0.1,
+            tilt_rad: 25f64.to_radians(),
+            mount_forward_m: 0.0,
+            mount_left_m: 0.0,
+        }
+    }
+
+    /// Dark floor below row `edge` (exact sub-pixel edge), white wall above.
+    fn wall_image(edge: f32) -> image::RgbImage {
+        image::RgbImage::from_fn(320, 240, |_, v| {
+            // Share of the pixel [v−½, v+½] above the edge.
+            let a = (edge - (v as f32 - 0.5)).clamp(0.0, 1.0);
+            let val = 30.0 + a * (220.0 - 30.0);
+            image::Rgb([val as u8, val as u8, val as u8])
+        })
+    }
+
+    #[test]
+    fn finds_sub_pixel_edge_of_a_wall() {
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        for edge in [60.0, 60.3, 60.5, 100.8] {
+            let b = ex.boundaries(&wall_image(edge)).unwrap();
+            for col in &b {
+                let ColumnBoundary::Obstacle { row, .. } = *col else {
+                    panic!("{col:?}")
+                };
+                assert!((row - edge).abs() < 0.05, "edge {edge}: found {row}");
+            }
+        }
+    }
+
+    #[test]
+    fn wall_range_matches_the_camera_model() {
+        let c = cam();
+        let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+        let rop = ex.rop(&wall_image(70.25)).unwrap();
+        let i = rop.bin_of(0.0).unwrap();
+        let expect = c.pixel_to_floor(159.5, 70.25).unwrap().x as f32;
+        assert!(
+            (rop.reliable(i).unwrap() - expect).abs() < 0.002,
+            "{:?} vs {expect}",
+            rop.reliable(i)
+        );
+    }
+
+    #[test]
+    fn specks_and_gradients_are_floor() {
+        // Floor brightening 1 % per row upwards, with small bright specks.
+        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
+            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
+            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+        });
+        for (cu, cv) in [(50u32, 200u32), (160, 150), (250, 90), (100, 40)] {
+            for du in 0..4 {
+                for dv in 0..4 {
+                    img.put_pixel(cu + du, cv + dv, image::Rgb([240, 240, 240]));
+                }
+            }
+        }
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        let b = ex.boundaries(&img).unwrap();
+        assert!(
+            b.iter().all(|c| matches!(c, ColumnBoundary::Clear { .. })),
+            "{:?}",
+            b.iter().find(|c| !matches!(c, ColumnBoundary::Clear { .. }))
+        );
+        let rop = ex.rop(&img).unwrap();
+        assert!((0..rop.len()).all(|i| rop.reliable(i).is_none()));
+    }
+
+    #[test]
+    fn uniform_images_give_empty_profiles_and_wrong_sizes_errors() {
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        for val in [0u8, 128, 255] {
+            let rop = ex
+                .rop(&image::RgbImage::from_pixel(320, 240, image::Rgb([val; 3])))
+                .unwrap();
+            assert!((0..rop.len()).all(|i| rop.reliable(i).is_none() && rop.seen(i)));
+        }
+        assert!(matches!(
+            ex.rop(&image::RgbImage::new(10, 10)),
+            Err(VisionError::WrongSize { .. })
+        ));
+        assert!(RopExtractor::try_new(
+            &cam(),
+            0.9,
+            VisionConfig {
+                bin_width_rad: 0.0,
+                ..Default::default()
+            }
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn fine_bins_are_filled_between_columns() {
+        let cfg = VisionConfig {
+            bin_width_rad: 0.2f64.to_radians(),
+            ..Default::default()
+        };
+        let ex = RopExtractor::new(&cam(), 0.9, cfg);
+        let rop = ex.rop(&wall_image(40.0)).unwrap();
+        let lo = rop.bin_of(-25f64.to_radians()).unwrap();
+        let hi = rop.bin_of(25f64.to_radians()).unwrap();
+        assert!((lo..=hi).all(|i| rop.reliable(i).is_some()));
+    }
+}

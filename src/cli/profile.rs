@@ -1,0 +1,215 @@
+//! `pirouette profile` and `pirouette eval profile`.
+
+use anyhow::{bail, Result};
+use pirouette::camera::ModelKind;
+use pirouette::eval::ProfileTally;
+use pirouette::io::Dataset;
+use pirouette::pipeline;
+use pirouette::profile::filter::OutlierFilter;
+use pirouette::vision::VisionConfig;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Settings shared by the commands that build profiles.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ProfileOptions {
+    /// Camera model: paper (the four tape measurements) or pinhole. Default:
+    /// the most accurate one the dataset's camera allows.
+    #[arg(long, value_parser = ["paper", "pinhole"])]
+    model: Option<String>,
+    /// Bin width of the profile, degrees (1° default, down to 0.2°).
+    #[arg(long = "bin-deg", default_value_t = 1.0)]
+    bin_deg: f64,
+    /// Outlier filter over the bins: median3 (robust), mean3 (the paper's) or none.
+    #[arg(long, default_value = "median3", value_parser = ["median3", "mean3", "none"])]
+    filter: String,
+    /// The lowest obstacle to detect, metres (flatter things are floor).
+    #[arg(long, default_value_t = 0.02)]
+    min_obstacle_height: f64,
+}
+
+impl ProfileOptions {
+    pub fn model(&self) -> Option<ModelKind> {
+        self.model
+            .as_deref()
+            .map(|m| m.parse().expect("clap checked the value"))
+    }
+
+    pub fn config(&self) -> Result<VisionConfig> {
+        if !(self.bin_deg.is_finite() && self.bin_deg >= 0.05 && self.bin_deg <= 10.0) {
+            bail!("--bin-deg {} is outside 0.05..10", self.bin_deg);
+        }
+        let filter: OutlierFilter = self.filter.parse().map_err(anyhow::Error::msg)?;
+        Ok(VisionConfig {
+            bin_width_rad: self.bin_deg.to_radians(),
+            min_obstacle_height_m: self.min_obstacle_height,
+            filter,
+            ..VisionConfig::default()
+        })
+    }
+}
+
+/// Arguments of `pirouette profile`.
+#[derive(clap::Args, Debug)]
+pub struct ProfileArgs {
+    /// The dataset folder.
+    dataset: PathBuf,
+    #[command(flatten)]
+    options: ProfileOptions,
+    /// JSON Lines on stdout: one object per frame.
+    #[arg(long)]
+    json: bool,
+    /// Write per-frame pictures (ROP diagram, top-down floor view) into this folder.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// Arguments of `pirouette eval profile`.
+#[derive(clap::Args, Debug)]
+pub struct EvalProfileArgs {
+    /// Dataset folders with truth/rop.
+    #[arg(required = true)]
+    datasets: Vec<PathBuf>,
+    #[command(flatten)]
+    options: ProfileOptions,
+    /// JSON Lines on stdout: one object per dataset and model, then the overall scores.
+    #[arg(long)]
+    json: bool,
+}
+
+fn json_value(x: f64) -> serde_json::Value {
+    // Four decimals (0.1 mm): what the profile can resolve, and short lines.
+    json!((x * 1e4).round() / 1e4)
+}
+
+/// `pirouette profile`.
+pub fn profile(a: ProfileArgs) -> Result<()> {
+    let ds = super::open_dataset(&a.dataset)?;
+    let extractor = pipeline::extractor(&ds, a.options.model(), a.options.config()?)?;
+    let bar = super::progress(ds.manifest.frames.len(), "profile");
+    let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
+    bar.finish_and_clear();
+    for (f, rop) in ds.manifest.frames.iter().zip(&rops) {
+        let range: Vec<serde_json::Value> = (0..rop.len())
+            .map(|i| rop.reliable(i).map_or(json!(null), |r| json_value(r as f64)))
+            .collect();
+        if a.json {
+            let rgb: Vec<serde_json::Value> = (0..rop.len())
+                .map(|i| rop.reliable_colour(i).map_or(json!(null), |c| json!(c.0)))
+                .collect();
+            let line = json!({
+                "image": f.image,
+                "bearing_start_deg": json_value(rop.bearing_start_deg()),
+                "bin_deg": json_value(rop.bin_width_deg()),
+                "range": range,
+                "rgb": rgb,
+            });
+            println!("{line}");
+        } else {
+            let hits: Vec<f32> = (0..rop.len()).filter_map(|i| rop.reliable(i)).collect();
+            let nearest = hits.iter().copied().fold(f32::INFINITY, f32::min);
+            if hits.is_empty() {
+                println!("{:<24} {:>3} of {} bins with an obstacle", f.image, 0, rop.len());
+            } else {
+                println!(
+                    "{:<24} {:>3} of {} bins with an obstacle, nearest {:.3} m",
+                    f.image,
+                    hits.len(),
+                    rop.len(),
+                    nearest
+                );
+            }
+        }
+    }
+    if let Some(dir) = &a.plot {
+        let camera = ds.camera(a.options.model())?;
+        super::plots::profile_plots(&ds, &extractor, &camera, &rops, dir)?;
+        if !a.json {
+            println!("pictures written to {}", dir.display());
+        }
+    }
+    Ok(())
+}
+
+/// `pirouette eval profile`.
+pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
+    let config = a.options.config()?;
+    let mut overall: Vec<(ModelKind, ProfileTally)> = Vec::new();
+    if !a.json {
+        println!(
+            "{:<18} {:<8} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7} {:>7}",
+            "dataset", "model", "|rel err|", "bias", "within10%", "missed", "false rng", "truth", "free"
+        );
+    }
+    for path in &a.datasets {
+        let ds = super::open_dataset(path)?;
+        let models = match a.options.model() {
+            Some(m) => vec![m],
+            None if ds.manifest.camera.pinhole.is_some() => vec![ModelKind::Pinhole, ModelKind::Paper],
+            None => vec![ModelKind::Paper],
+        };
+        let truths = (0..ds.manifest.frames.len())
+            .map(|i| ds.truth_rop(i))
+            .collect::<Result<Vec<_>, _>>()?;
+        if truths.iter().all(Option::is_none) {
+            bail!("{}: no truth/rop files to evaluate against", ds.root.display());
+        }
+        for model in models {
+            let extractor = pipeline::extractor(&ds, Some(model), config.clone())?;
+            let bar = super::progress(ds.manifest.frames.len(), "profile");
+            let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
+            bar.finish_and_clear();
+            let mut tally = ProfileTally::default();
+            for (rop, truth) in rops.iter().zip(&truths) {
+                if let Some(t) = truth {
+                    tally.add(rop, t);
+                }
+            }
+            print_scores(&ds, &ds.manifest.name, model, &tally, a.json);
+            match overall.iter_mut().find(|(m, _)| *m == model) {
+                Some((_, t)) => t.merge(&tally),
+                None => overall.push((model, tally)),
+            }
+        }
+    }
+    if a.datasets.len() > 1 {
+        for (model, tally) in &overall {
+            print_scores_named("overall", *model, tally, a.json);
+        }
+    }
+    Ok(())
+}
+
+fn model_name(m: ModelKind) -> &'static str {
+    match m {
+        ModelKind::Paper => "paper",
+        ModelKind::Pinhole => "pinhole",
+    }
+}
+
+fn print_scores(_ds: &Dataset, name: &str, model: ModelKind, tally: &ProfileTally, json: bool) {
+    print_scores_named(name, model, tally, json);
+}
+
+fn print_scores_named(name: &str, model: ModelKind, tally: &ProfileTally, json: bool) {
+    let s = tally.scores();
+    if json {
+        let mut v = serde_json::to_value(&s).expect("scores serialise");
+        v["dataset"] = json!(name);
+        v["model"] = json!(model_name(model));
+        println!("{v}");
+    } else {
+        println!(
+            "{:<18} {:<8} {:>9.2}% {:>8.2}% {:>9.1}% {:>7.1}% {:>8.2}% {:>7} {:>7}",
+            name,
+            model_name(model),
+            s.median_abs_rel_error * 100.0,
+            s.median_rel_bias * 100.0,
+            s.within_10pct * 100.0,
+            s.missed * 100.0,
+            s.false_range * 100.0,
+            s.truth_bins,
+            s.free_bins
+        );
+    }
+}

@@ -1,0 +1,151 @@
+//! Pictures for people: ROP diagrams, top-down floor views, boundary
+//! overlays (PNG).
+
+use image::{Rgb, RgbImage};
+use imageproc::drawing::{draw_filled_circle_mut, draw_hollow_circle_mut, draw_line_segment_mut};
+use pirouette_camera::CameraModel;
+use pirouette_geom::Point2;
+use pirouette_profile::Rop;
+use pirouette_vision::ColumnBoundary;
+
+/// Grid spacing of range, metres (the paper's Fig. 4).
+pub const GRID_RANGE_M: f64 = 0.1;
+/// Grid spacing of bearing, degrees (the paper's Fig. 4).
+pub const GRID_BEARING_DEG: f64 = 10.0;
+
+const BACKGROUND: Rgb<u8> = Rgb([255, 255, 255]);
+const GRID: Rgb<u8> = Rgb([215, 215, 215]);
+const LIMIT: Rgb<u8> = Rgb([240, 160, 40]);
+const MEASURED: Rgb<u8> = Rgb([210, 30, 30]);
+const TRUTH: Rgb<u8> = Rgb([30, 150, 60]);
+
+/// The ROP diagram: range (up) against bearing (left of the robot on the
+/// left), grid lines every 10 cm and 10°, the soft range limit in orange,
+/// the measured profile in red and, when given, the true one in green.
+pub fn rop_diagram(rop: &Rop, truth: Option<&Rop>) -> RgbImage {
+    let (w, h) = (640u32, 400u32);
+    let margin = 20.0f32;
+    let mut img = RgbImage::from_pixel(w, h, BACKGROUND);
+    let b_lo = rop.bearing_start_rad;
+    let b_hi = rop.bin_centre_rad(rop.len().saturating_sub(1)) + rop.bin_width_rad / 2.0;
+    let r_top = ((rop.max_range_m as f64 * 1.25) / GRID_RANGE_M).ceil() * GRID_RANGE_M;
+    let x_of = |b: f64| margin + ((b_hi - b) / (b_hi - b_lo)) as f32 * (w as f32 - 2.0 * margin);
+    let y_of = |r: f64| h as f32 - margin - (r / r_top) as f32 * (h as f32 - 2.0 * margin);
+    let mut r = 0.0;
+    while r <= r_top + 1e-9 {
+        draw_line_segment_mut(&mut img, (margin, y_of(r)), (w as f32 - margin, y_of(r)), GRID);
+        r += GRID_RANGE_M;
+    }
+    let step = GRID_BEARING_DEG.to_radians();
+    let mut b = (b_lo / step).ceil() * step;
+    while b <= b_hi {
+        draw_line_segment_mut(&mut img, (x_of(b), margin), (x_of(b), h as f32 - margin), GRID);
+        b += step;
+    }
+    draw_line_segment_mut(
+        &mut img,
+        (x_of(0.0), margin),
+        (x_of(0.0), h as f32 - margin),
+        Rgb([160, 160, 160]),
+    );
+    let limit = y_of(rop.max_range_m as f64);
+    draw_line_segment_mut(&mut img, (margin, limit), (w as f32 - margin, limit), LIMIT);
+    for (profile, colour) in truth.map(|t| (t, TRUTH)).into_iter().chain([(rop, MEASURED)]) {
+        let mut last: Option<(f32, f32)> = None;
+        for i in 0..profile.len() {
+            let Some(r) = profile.reliable(i) else {
+                last = None;
+                continue;
+            };
+            let p = (x_of(profile.bin_centre_rad(i)), y_of(r as f64));
+            if let Some(q) = last {
+                draw_line_segment_mut(&mut img, q, p, colour);
+            }
+            draw_filled_circle_mut(&mut img, (p.0 as i32, p.1 as i32), 2, colour);
+            last = Some(p);
+        }
+    }
+    img
+}
+
+/// The top-down floor view: the camera image warped onto the floor (robot
+/// at the bottom centre, forward up), a radial grid every 10 cm and 10°,
+/// and the profile's obstacle points in red.
+pub fn floor_view(camera: &impl CameraModel, image: &RgbImage, rop: &Rop) -> RgbImage {
+    let size = 480u32;
+    let mut img = RgbImage::from_pixel(size, size, BACKGROUND);
+    let reach_m = rop.max_range_m as f64 * 1.2;
+    let scale = (size as f64 - 20.0) / reach_m;
+    let origin = (size as f64 / 2.0, size as f64 - 10.0);
+    let to_canvas = |p: Point2| ((origin.0 - p.y * scale) as f32, (origin.1 - p.x * scale) as f32);
+    for cy in 0..size {
+        for cx in 0..size {
+            let p = Point2::new((origin.1 - cy as f64) / scale, (origin.0 - cx as f64) / scale);
+            if p.x <= 0.0 {
+                continue;
+            }
+            let Some((u, v)) = camera.floor_to_pixel(p) else {
+                continue;
+            };
+            if camera.contains(u, v) && camera.pixel_to_floor(u, v).is_some() {
+                let (ui, vi) = (
+                    u.round().clamp(0.0, image.width() as f64 - 1.0),
+                    v.round().clamp(0.0, image.height() as f64 - 1.0),
+                );
+                img.put_pixel(cx, cy, *image.get_pixel(ui as u32, vi as u32));
+            }
+        }
+    }
+    let centre = (origin.0 as i32, origin.1 as i32);
+    let mut r = GRID_RANGE_M;
+    while r <= reach_m {
+        draw_hollow_circle_mut(&mut img, centre, (r * scale) as i32, GRID);
+        r += GRID_RANGE_M;
+    }
+    draw_hollow_circle_mut(&mut img, centre, (rop.max_range_m as f64 * scale) as i32, LIMIT);
+    let mut b = -90.0;
+    while b <= 90.0 {
+        let end = to_canvas(Point2::from_polar(reach_m, (b as f64).to_radians()));
+        draw_line_segment_mut(&mut img, (origin.0 as f32, origin.1 as f32), end, GRID);
+        b += GRID_BEARING_DEG;
+    }
+    for i in 0..rop.len() {
+        if let Some(r) = rop.reliable(i) {
+            let (x, y) = to_canvas(Point2::from_polar(r as f64, rop.bin_centre_rad(i)));
+            draw_filled_circle_mut(&mut img, (x as i32, y as i32), 2, MEASURED);
+        }
+    }
+    img
+}
+
+/// The camera image with the floor/obstacle boundary of every column drawn
+/// in red (green where the column is clear to its top floor row).
+pub fn boundary_overlay(image: &RgbImage, boundaries: &[ColumnBoundary]) -> RgbImage {
+    let mut img = image.clone();
+    for (u, b) in boundaries.iter().enumerate() {
+        let (row, colour) = match *b {
+            ColumnBoundary::Obstacle { row, .. } => (row, MEASURED),
+            ColumnBoundary::Clear { top_row } => (top_row as f32, TRUTH),
+            ColumnBoundary::NoFloor => continue,
+        };
+        let v = row.round().clamp(0.0, img.height() as f32 - 1.0) as u32;
+        img.put_pixel(u as u32, v, colour);
+    }
+    img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diagram_draws_profile_truth_and_limit() {
+        let mut rop = Rop::covering(-0.5, 0.5, 1f64.to_radians(), 0.9).unwrap();
+        for i in 0..rop.len() {
+            rop.range_m[i] = 0.5;
+        }
+        let img = rop_diagram(&rop, Some(&rop.clone()));
+        let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
+        assert!(count(MEASURED) > 100 && count(LIMIT) > 100 && count(GRID) > 1000);
+    }
+}
