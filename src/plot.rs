@@ -103,9 +103,9 @@ pub fn floor_view(camera: &impl CameraModel, image: &RgbImage, rop: &Rop) -> Rgb
         r += GRID_RANGE_M;
     }
     draw_hollow_circle_mut(&mut img, centre, (rop.max_range_m as f64 * scale) as i32, LIMIT);
-    let mut b = -90.0;
+    let mut b: f64 = -90.0;
     while b <= 90.0 {
-        let end = to_canvas(Point2::from_polar(reach_m, (b as f64).to_radians()));
+        let end = to_canvas(Point2::from_polar(reach_m, f64::to_radians(b)));
         draw_line_segment_mut(&mut img, (origin.0 as f32, origin.1 as f32), end, GRID);
         b += GRID_BEARING_DEG;
     }

@@ -4,4 +4,5 @@ mod util;
 
 mod cli;
 mod datasets;
+mod profile;
 mod truth;

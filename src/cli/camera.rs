@@ -34,17 +34,22 @@ pub fn camera(a: CameraArgs) -> Result<()> {
     let bands = compare(&cam.ipm_model(), &pinhole, a.band_rows, limit);
     if a.json {
         for b in &bands {
-            println!("{}", serde_json::to_string(b)?);
+            outln!("{}", serde_json::to_string(b)?)?;
         }
         return Ok(());
     }
-    println!("paper model (b, h, d, w) against pinhole, floor within {limit:.2} m");
-    println!(
+    outln!("paper model (b, h, d, w) against pinhole, floor within {limit:.2} m")?;
+    outln!(
         "{:>9} {:>9} {:>11} {:>11} {:>11} {:>8}",
-        "rows", "range m", "median cm", "max cm", "range bias", "pixels"
-    );
+        "rows",
+        "range m",
+        "median cm",
+        "max cm",
+        "range bias",
+        "pixels"
+    )?;
     for b in &bands {
-        println!(
+        outln!(
             "{:>4}-{:<4} {:>9.3} {:>11.2} {:>11.2} {:>10.2}% {:>8}",
             b.v_start,
             b.v_end - 1,
@@ -53,7 +58,7 @@ pub fn camera(a: CameraArgs) -> Result<()> {
             b.max_gap_m * 100.0,
             b.median_range_bias * 100.0,
             b.pixels
-        );
+        )?;
     }
     Ok(())
 }

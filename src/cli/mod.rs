@@ -1,5 +1,14 @@
 //! Command-line parsing and dispatch.
 
+/// `println!` that returns the write error instead of panicking, so that a
+/// closed pipe (`pirouette profile ... | head`) ends the command quietly.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 

@@ -3,7 +3,6 @@
 use anyhow::{bail, Result};
 use pirouette::camera::ModelKind;
 use pirouette::eval::ProfileTally;
-use pirouette::io::Dataset;
 use pirouette::pipeline;
 use pirouette::profile::filter::OutlierFilter;
 use pirouette::vision::VisionConfig;
@@ -24,8 +23,17 @@ pub struct ProfileOptions {
     #[arg(long, default_value = "median3", value_parser = ["median3", "mean3", "none"])]
     filter: String,
     /// The lowest obstacle to detect, metres (flatter things are floor).
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = VisionConfig::default().min_obstacle_height_m)]
     min_obstacle_height: f64,
+    /// Relative brightness step (same chromaticity) that leaves the floor.
+    #[arg(long, default_value_t = VisionConfig::default().min_brightness_step)]
+    min_brightness_step: f32,
+    /// Relative chromaticity change that leaves the floor.
+    #[arg(long, default_value_t = VisionConfig::default().min_chroma_step)]
+    min_chroma_step: f32,
+    /// Steps must also exceed this many standard deviations of the image noise.
+    #[arg(long, default_value_t = VisionConfig::default().noise_sigmas)]
+    noise_sigmas: f32,
 }
 
 impl ProfileOptions {
@@ -43,6 +51,9 @@ impl ProfileOptions {
         Ok(VisionConfig {
             bin_width_rad: self.bin_deg.to_radians(),
             min_obstacle_height_m: self.min_obstacle_height,
+            min_brightness_step: self.min_brightness_step,
+            min_chroma_step: self.min_chroma_step,
+            noise_sigmas: self.noise_sigmas,
             filter,
             ..VisionConfig::default()
         })
@@ -104,20 +115,20 @@ pub fn profile(a: ProfileArgs) -> Result<()> {
                 "range": range,
                 "rgb": rgb,
             });
-            println!("{line}");
+            outln!("{line}")?;
         } else {
             let hits: Vec<f32> = (0..rop.len()).filter_map(|i| rop.reliable(i)).collect();
             let nearest = hits.iter().copied().fold(f32::INFINITY, f32::min);
             if hits.is_empty() {
-                println!("{:<24} {:>3} of {} bins with an obstacle", f.image, 0, rop.len());
+                outln!("{:<24} {:>3} of {} bins with an obstacle", f.image, 0, rop.len())?;
             } else {
-                println!(
+                outln!(
                     "{:<24} {:>3} of {} bins with an obstacle, nearest {:.3} m",
                     f.image,
                     hits.len(),
                     rop.len(),
                     nearest
-                );
+                )?;
             }
         }
     }
@@ -125,7 +136,7 @@ pub fn profile(a: ProfileArgs) -> Result<()> {
         let camera = ds.camera(a.options.model())?;
         super::plots::profile_plots(&ds, &extractor, &camera, &rops, dir)?;
         if !a.json {
-            println!("pictures written to {}", dir.display());
+            outln!("pictures written to {}", dir.display())?;
         }
     }
     Ok(())
@@ -136,10 +147,18 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
     let config = a.options.config()?;
     let mut overall: Vec<(ModelKind, ProfileTally)> = Vec::new();
     if !a.json {
-        println!(
+        outln!(
             "{:<18} {:<8} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7} {:>7}",
-            "dataset", "model", "|rel err|", "bias", "within10%", "missed", "false rng", "truth", "free"
-        );
+            "dataset",
+            "model",
+            "|rel err|",
+            "bias",
+            "within10%",
+            "missed",
+            "false rng",
+            "truth",
+            "free"
+        )?;
     }
     for path in &a.datasets {
         let ds = super::open_dataset(path)?;
@@ -165,7 +184,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
                     tally.add(rop, t);
                 }
             }
-            print_scores(&ds, &ds.manifest.name, model, &tally, a.json);
+            print_scores(&ds.manifest.name, model, &tally, a.json)?;
             match overall.iter_mut().find(|(m, _)| *m == model) {
                 Some((_, t)) => t.merge(&tally),
                 None => overall.push((model, tally)),
@@ -174,7 +193,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
     }
     if a.datasets.len() > 1 {
         for (model, tally) in &overall {
-            print_scores_named("overall", *model, tally, a.json);
+            print_scores("overall", *model, tally, a.json)?;
         }
     }
     Ok(())
@@ -187,19 +206,15 @@ fn model_name(m: ModelKind) -> &'static str {
     }
 }
 
-fn print_scores(_ds: &Dataset, name: &str, model: ModelKind, tally: &ProfileTally, json: bool) {
-    print_scores_named(name, model, tally, json);
-}
-
-fn print_scores_named(name: &str, model: ModelKind, tally: &ProfileTally, json: bool) {
+fn print_scores(name: &str, model: ModelKind, tally: &ProfileTally, json: bool) -> Result<()> {
     let s = tally.scores();
     if json {
         let mut v = serde_json::to_value(&s).expect("scores serialise");
         v["dataset"] = json!(name);
         v["model"] = json!(model_name(model));
-        println!("{v}");
+        outln!("{v}")?;
     } else {
-        println!(
+        outln!(
             "{:<18} {:<8} {:>9.2}% {:>8.2}% {:>9.1}% {:>7.1}% {:>8.2}% {:>7} {:>7}",
             name,
             model_name(model),
@@ -210,6 +225,7 @@ fn print_scores_named(name: &str, model: ModelKind, tally: &ProfileTally, json: 
             s.false_range * 100.0,
             s.truth_bins,
             s.free_bins
-        );
+        )?;
     }
+    Ok(())
 }

@@ -1,8 +1,11 @@
 //! `pirouette render` and `pirouette example`.
 
 use anyhow::{Context, Result};
+use pirouette::eval::ProfileTally;
 use pirouette::io::{Dataset, Motion};
+use pirouette::pipeline;
 use pirouette::sim::{render_dataset, Scene, BUILTIN_SCENES};
+use pirouette::vision::VisionConfig;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `pirouette render`.
@@ -52,7 +55,7 @@ fn render_with_progress(scene: &Scene, seed: u64, out: &Path) -> Result<Dataset>
 }
 
 /// Prints what a dataset holds.
-pub fn summary(ds: &Dataset) {
+pub fn summary(ds: &Dataset) -> Result<()> {
     let m = &ds.manifest;
     let sweeps = m
         .frames
@@ -68,15 +71,15 @@ pub fn summary(ds: &Dataset) {
             None => {}
         }
     }
-    println!("dataset   {} ({})", m.name, ds.root.display());
-    println!(
+    outln!("dataset   {} ({})", m.name, ds.root.display())?;
+    outln!(
         "frames    {} in {} sweeps; {} turns, {:.2} m of forward moves",
         m.frames.len(),
         sweeps,
         turns,
         forward_m
-    );
-    println!(
+    )?;
+    outln!(
         "camera    {}x{}, {} model by default, max range {:.2} m",
         m.camera.width,
         m.camera.height,
@@ -86,21 +89,21 @@ pub fn summary(ds: &Dataset) {
             "paper"
         },
         m.max_range
-    );
+    )?;
     if let Ok(Some(w)) = ds.world() {
-        println!(
+        outln!(
             "truth     scene with {} obstacles, true poses and profiles",
             w.obstacles.len()
-        );
+        )?;
     }
+    Ok(())
 }
 
 /// `pirouette render`.
 pub fn render(a: RenderArgs) -> Result<()> {
     let scene = load_scene(&a.scene)?;
     let ds = render_with_progress(&scene, a.seed, &a.out)?;
-    summary(&ds);
-    Ok(())
+    summary(&ds)
 }
 
 /// The built-in example: the multi-sweep soccer field.
@@ -108,15 +111,38 @@ pub const EXAMPLE_SCENE: &str = "field-multi";
 /// Its seed.
 pub const EXAMPLE_SEED: u64 = 2004;
 
-/// `pirouette example`.
+/// `pirouette example`: render, profile every frame, score against truth,
+/// draw pictures.
 pub fn example(a: ExampleArgs) -> Result<()> {
     let scene = Scene::builtin(EXAMPLE_SCENE).expect("the example scene is built in");
     let dataset_dir = a.out.join("dataset");
     let ds = render_with_progress(&scene, EXAMPLE_SEED, &dataset_dir)?;
-    summary(&ds);
-    println!(
-        "\nrendered frames are in {}",
-        dataset_dir.join("frames").display()
-    );
+    summary(&ds)?;
+
+    let extractor = pipeline::extractor(&ds, None, VisionConfig::default())?;
+    let bar = super::progress(ds.manifest.frames.len(), "profile");
+    let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
+    bar.finish_and_clear();
+    let mut tally = ProfileTally::default();
+    for (i, rop) in rops.iter().enumerate() {
+        if let Some(t) = ds.truth_rop(i)? {
+            tally.add(rop, &t);
+        }
+    }
+    let s = tally.scores();
+    outln!(
+        "profiles  median range error {:.2} %, {:.1} % of obstacle bins within 10 %, {:.1} % missed, {:.2} % false",
+        s.median_abs_rel_error * 100.0,
+        s.within_10pct * 100.0,
+        s.missed * 100.0,
+        s.false_range * 100.0
+    )?;
+    let plots = a.out.join("profiles");
+    let camera = ds.camera(None)?;
+    super::plots::profile_plots(&ds, &extractor, &camera, &rops, &plots)?;
+    outln!(
+        "\nlook at  {}  (per frame: -boundary.png, -rop.png, -floor.png)",
+        plots.display()
+    )?;
     Ok(())
 }

@@ -131,6 +131,17 @@ pub struct RopExtractor {
     view_rad: (f64, f64),
 }
 
+/// A column's floor point at its boundary (or its farthest floor point when
+/// the column is clear).
+#[derive(Debug, Clone, Copy)]
+struct BoundaryPoint {
+    bearing_rad: f64,
+    range_m: f32,
+    colour: Option<ColourTag>,
+    /// An obstacle's base, not the end of sight.
+    obstacle: bool,
+}
+
 /// Rows of the seed at the bottom of each column.
 const SEED_ROWS: u32 = 6;
 
@@ -153,20 +164,25 @@ impl Classifier {
     fn is_floor(&self, p: &[f32; 3], q: &[f32; 3]) -> bool {
         let sum_p = p[0] + p[1] + p[2];
         let sum_q = (q[0] + q[1] + q[2]).max(0.0);
-        let eb = (sum_p - sum_q) / (self.brightness_step * sum_q).max(self.noise * 3f32.sqrt());
-        if eb * eb > 1.0 {
+        let db = sum_p - sum_q;
+        let tb = (self.brightness_step * sum_q).max(self.noise * SQRT_3);
+        let tb2 = tb * tb;
+        if db * db > tb2 {
             return false;
         }
+        // Room left inside the ellipse for the chromaticity term.
+        let room = 1.0 - db * db / tb2;
         let b = if sum_q > 0.0 { sum_p / sum_q } else { 1.0 };
-        let mut ec2 = 0f32;
-        for c in 0..3 {
+        (0..3).all(|c| {
             let expect = b * q[c];
-            let ec = (p[c] - expect) / (self.chroma_step * expect).max(self.noise);
-            ec2 = ec2.max(ec * ec);
-        }
-        eb * eb + ec2 <= 1.0
+            let e = p[c] - expect;
+            let t = (self.chroma_step * expect).max(self.noise);
+            e * e <= room * t * t
+        })
     }
 }
+
+const SQRT_3: f32 = 1.732_050_8;
 
 /// The floor's colour followed up a column: a level and a trend per row
 /// (Holt's linear smoothing), so a floor that brightens steadily upwards
@@ -214,11 +230,11 @@ impl FloorTrack {
 
     /// Takes in a floor pixel.
     fn update(&mut self, p: &[f32; 3], rate: f32, trend_rate: f32) {
-        for c in 0..3 {
-            let pred = self.level[c] + self.trend[c];
-            let level = pred + rate * (p[c] - pred);
-            self.trend[c] += trend_rate * (level - self.level[c] - self.trend[c]);
-            self.level[c] = level;
+        for ((level, trend), &x) in self.level.iter_mut().zip(&mut self.trend).zip(p) {
+            let pred = *level + *trend;
+            let new_level = pred + rate * (x - pred);
+            *trend += trend_rate * (new_level - *level - *trend);
+            *level = new_level;
         }
     }
 
@@ -329,8 +345,8 @@ impl RopExtractor {
         let mut rop = Rop::covering(lo, hi, self.config.bin_width_rad, self.max_range_m)
             .expect("bin width checked and the view span is finite");
         // Each column's floor point at its boundary (or its farthest floor
-        // point when clear), as (bearing, range, colour, is_obstacle).
-        let points: Vec<Option<(f64, f32, Option<ColourTag>, bool)>> = boundaries
+        // point when clear).
+        let points: Vec<Option<BoundaryPoint>> = boundaries
             .iter()
             .enumerate()
             .map(|(u, b)| match *b {
@@ -338,22 +354,35 @@ impl RopExtractor {
                     let p = self
                         .table
                         .floor_at_row(u as u32, row.min((self.height - 1) as f32))?;
-                    Some((p.bearing(), p.norm() as f32, colour, true))
+                    Some(BoundaryPoint {
+                        bearing_rad: p.bearing(),
+                        range_m: p.norm() as f32,
+                        colour,
+                        obstacle: true,
+                    })
                 }
                 ColumnBoundary::Clear { top_row } => {
                     let p = self.table.floor(u as u32, top_row)?;
-                    Some((p.bearing(), f32::INFINITY, None, false))
+                    Some(BoundaryPoint {
+                        bearing_rad: p.bearing(),
+                        range_m: f32::INFINITY,
+                        colour: None,
+                        obstacle: false,
+                    })
                 }
                 ColumnBoundary::NoFloor => None,
             })
             .collect();
         for (u, p) in points.iter().enumerate() {
             let Some(p) = p else { continue };
-            rop.insert(p.0, p.1, p.2);
+            rop.insert(p.bearing_rad, p.range_m, p.colour);
             // The floor below the boundary is seen and free: bins between
             // the column's bottom pixel and its boundary are seen.
             if let Some(bottom) = self.table.floor(u as u32, self.height - 1) {
-                let (a, b) = (bottom.bearing().min(p.0), bottom.bearing().max(p.0));
+                let (a, b) = (
+                    bottom.bearing().min(p.bearing_rad),
+                    bottom.bearing().max(p.bearing_rad),
+                );
                 if let (Some(i0), Some(i1)) = (rop.bin_of(a), rop.bin_of(b)) {
                     for i in i0..=i1 {
                         rop.insert(rop.bin_centre_rad(i), f32::INFINITY, None);
@@ -367,17 +396,26 @@ impl RopExtractor {
             let (Some(a), Some(b)) = (pair[0], pair[1]) else {
                 continue;
             };
-            if !(a.3 && b.3) || (a.1 - b.1).abs() > 0.05 * a.1.min(b.1) {
+            if !(a.obstacle && b.obstacle) || (a.range_m - b.range_m).abs() > 0.05 * a.range_m.min(b.range_m)
+            {
                 continue;
             }
-            let (first, last) = if a.0 <= b.0 { (a, b) } else { (b, a) };
-            let Some(i0) = rop.bin_of(first.0) else { continue };
-            let Some(i1) = rop.bin_of(last.0) else { continue };
+            let (first, last) = if a.bearing_rad <= b.bearing_rad {
+                (a, b)
+            } else {
+                (b, a)
+            };
+            let Some(i0) = rop.bin_of(first.bearing_rad) else {
+                continue;
+            };
+            let Some(i1) = rop.bin_of(last.bearing_rad) else {
+                continue;
+            };
             for i in i0 + 1..i1 {
                 let c = rop.bin_centre_rad(i);
-                let t = ((c - first.0) / (last.0 - first.0)) as f32;
-                let r = first.1 + t * (last.1 - first.1);
-                let colour = if t < 0.5 { first.2 } else { last.2 };
+                let t = ((c - first.bearing_rad) / (last.bearing_rad - first.bearing_rad)) as f32;
+                let r = first.range_m + t * (last.range_m - first.range_m);
+                let colour = if t < 0.5 { first.colour } else { last.colour };
                 rop.insert(c, r, colour);
             }
         }
@@ -424,6 +462,7 @@ impl RopExtractor {
         loop {
             let p = pix(v);
             let pred = floor.predict();
+
             if is_floor(&p, &pred) {
                 floor.update(&p, rate, trend_rate);
             } else {
@@ -523,17 +562,15 @@ fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> [f32; 3] {
 }
 
 /// The pixel at `(u, v)` averaged with its left and right neighbours.
-#[inline]
+#[inline(always)]
 fn smoothed(px: &[u8], width: u32, u: u32, v: u32) -> [f32; 3] {
-    let row = (v * width) as usize * 3;
-    let l = row + u.saturating_sub(1) as usize * 3;
-    let c = row + u as usize * 3;
-    let r = row + (u + 1).min(width - 1) as usize * 3;
-    let mut out = [0f32; 3];
-    for k in 0..3 {
-        out[k] = (px[l + k] as f32 + px[c + k] as f32 + px[r + k] as f32) * (1.0 / 3.0);
-    }
-    out
+    let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
+    let l = u.saturating_sub(1) as usize * 3;
+    let c = u as usize * 3;
+    let r = (u + 1).min(width - 1) as usize * 3;
+    let (l, c, r) = (&row[l..l + 3], &row[c..c + 3], &row[r..r + 3]);
+    let sum = |k: usize| (l[k] as u16 + c[k] as u16 + r[k] as u16) as f32 * (1.0 / 3.0);
+    [sum(0), sum(1), sum(2)]
 }
 
 /// Standard deviation of the noise of a 3-pixel average along the scan
