@@ -39,12 +39,12 @@ enum Command {
     /// Verified turns and 360° radial sweeps of a dataset.
     Sweep(NotYet),
     /// Build the occupancy grid map of a dataset or laser log.
-    Map(NotYet),
+    Map(MapArgs),
     /// Place index: build it from datasets.
     #[command(subcommand)]
     Places(PlacesCommand),
     /// Localise the sweeps of a dataset against a place index.
-    Localise(NotYet),
+    Localise(LocaliseArgs),
     /// Pose graphs in g2o format.
     #[command(subcommand)]
     Graph(GraphCommand),
@@ -56,13 +56,13 @@ enum Command {
 #[derive(Subcommand, Debug)]
 enum PlacesCommand {
     /// Build a place index from one or more datasets.
-    Build(NotYet),
+    Build(PlacesBuildArgs),
 }
 
 #[derive(Subcommand, Debug)]
 enum GraphCommand {
     /// Optimise a 2D pose graph.
-    Optimise(NotYet),
+    Optimise(GraphOptimiseArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -73,7 +73,63 @@ enum EvalCommand {
     /// Verified turns against true headings.
     Sweep(NotYet),
     /// Trajectory and map against truth.
-    Map(NotYet),
+    Map(EvalMapArgs),
+}
+
+/// Arguments of `pirouette map`.
+#[derive(clap::Args, Debug)]
+struct MapArgs {
+    /// Camera dataset folder or laser log file.
+    dataset: std::path::PathBuf,
+    /// Folder for map.pgm, map.yaml, map.png, poses.json and poses.tum.
+    #[arg(long)]
+    out: std::path::PathBuf,
+}
+
+/// Arguments of `pirouette places build`.
+#[derive(clap::Args, Debug)]
+struct PlacesBuildArgs {
+    /// Dataset folders (one place per sweep).
+    #[arg(required = true)]
+    datasets: Vec<std::path::PathBuf>,
+    /// The index file to write.
+    #[arg(long)]
+    out: std::path::PathBuf,
+}
+
+/// Arguments of `pirouette localise`.
+#[derive(clap::Args, Debug)]
+struct LocaliseArgs {
+    /// The place index file.
+    #[arg(long)]
+    index: std::path::PathBuf,
+    /// The query dataset folder.
+    dataset: std::path::PathBuf,
+    /// JSON Lines on stdout: one object per sweep.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Arguments of `pirouette graph optimise`.
+#[derive(clap::Args, Debug)]
+struct GraphOptimiseArgs {
+    /// The g2o file to optimise.
+    input: std::path::PathBuf,
+    /// The g2o file to write.
+    #[arg(long)]
+    out: std::path::PathBuf,
+    /// One JSON line of statistics on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Arguments of `pirouette eval map`.
+#[derive(clap::Args, Debug)]
+struct EvalMapArgs {
+    /// The dataset folder with truth.
+    dataset: std::path::PathBuf,
+    /// The folder `pirouette map` wrote.
+    dir: std::path::PathBuf,
 }
 
 /// Arguments of a command this version does not provide yet.
