@@ -151,3 +151,134 @@ mod tests {
         assert_eq!(s.missed, 0.5);
     }
 }
+
+/// Turn errors of one dataset's sweeps against true headings.
+#[derive(Debug, Clone, Default)]
+pub struct SweepTally {
+    /// |estimated − true| over verified turns, radians.
+    pub verified_errors: Vec<f64>,
+    /// |estimated − true| over every turn (fallbacks use the command), radians.
+    pub all_errors: Vec<f64>,
+    /// |commanded − true| over every turn, radians.
+    pub commanded_errors: Vec<f64>,
+    /// Turns that fell back to the command.
+    pub fallbacks: usize,
+    /// Verified turns with an error above 3°.
+    pub wrong_verified: usize,
+    /// |heading error| accumulated from each sweep's first to last frame,
+    /// estimated and commanded, radians.
+    pub sweep_heading_errors: Vec<(f64, f64)>,
+}
+
+/// The scores of a [`SweepTally`].
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct SweepScores {
+    /// Turns evaluated.
+    pub turns: usize,
+    /// Share of turns verified (not a fallback).
+    pub verified: f64,
+    /// Median |error| of verified turns, degrees.
+    pub median_verified_error_deg: f64,
+    /// 95th percentile |error| of verified turns, degrees.
+    pub p95_verified_error_deg: f64,
+    /// Largest |error| of a verified turn, degrees.
+    pub max_verified_error_deg: f64,
+    /// Verified turns with an error above 3°.
+    pub wrong_verified: usize,
+    /// Median |error| of all turns (fallbacks at the command), degrees.
+    pub median_error_deg: f64,
+    /// Median |error| of the commanded turns, degrees.
+    pub median_commanded_error_deg: f64,
+    /// Median |heading error| accumulated over a sweep, estimated, degrees.
+    pub median_sweep_heading_error_deg: f64,
+    /// Median |heading error| accumulated over a sweep, commanded, degrees.
+    pub median_sweep_commanded_heading_error_deg: f64,
+}
+
+fn percentile(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let idx = ((s.len() - 1) as f64 * p).round() as usize;
+    s[idx]
+}
+
+impl SweepTally {
+    /// Adds one sweep: `truth_theta_rad[k]` is the true heading of its
+    /// frame `k`, `commanded_rad[k]` the commanded turn before it.
+    pub fn add(
+        &mut self,
+        sweep: &pirouette_profile::sweep::Sweep,
+        truth_theta_rad: &[f64],
+        commanded_rad: &[Option<f64>],
+    ) {
+        use pirouette_geom::wrap_angle;
+        let mut cmd_heading = 0.0;
+        for k in 1..truth_theta_rad.len() {
+            let (Some(t), Some(cmd)) = (sweep.turns[k], commanded_rad[k]) else {
+                continue;
+            };
+            let true_turn = wrap_angle(truth_theta_rad[k] - truth_theta_rad[k - 1]);
+            let err = wrap_angle(t.turn_rad - true_turn).abs();
+            self.all_errors.push(err);
+            self.commanded_errors.push(wrap_angle(cmd - true_turn).abs());
+            cmd_heading += cmd;
+            if t.fallback {
+                self.fallbacks += 1;
+            } else {
+                self.verified_errors.push(err);
+                if err > 3f64.to_radians() {
+                    self.wrong_verified += 1;
+                }
+            }
+        }
+        if let (Some(&first), Some(&last), Some(&est)) = (
+            truth_theta_rad.first(),
+            truth_theta_rad.last(),
+            sweep.heading_rad.last(),
+        ) {
+            let true_heading = wrap_angle(last - first);
+            self.sweep_heading_errors.push((
+                wrap_angle(est - true_heading).abs(),
+                wrap_angle(cmd_heading - true_heading).abs(),
+            ));
+        }
+    }
+
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &SweepTally) {
+        self.verified_errors.extend_from_slice(&o.verified_errors);
+        self.all_errors.extend_from_slice(&o.all_errors);
+        self.commanded_errors.extend_from_slice(&o.commanded_errors);
+        self.fallbacks += o.fallbacks;
+        self.wrong_verified += o.wrong_verified;
+        self.sweep_heading_errors
+            .extend_from_slice(&o.sweep_heading_errors);
+    }
+
+    /// The scores.
+    pub fn scores(&self) -> SweepScores {
+        let deg = |x: f64| x.to_degrees();
+        let turns = self.all_errors.len();
+        let est: Vec<f64> = self.sweep_heading_errors.iter().map(|e| e.0).collect();
+        let cmd: Vec<f64> = self.sweep_heading_errors.iter().map(|e| e.1).collect();
+        SweepScores {
+            turns,
+            verified: if turns == 0 {
+                f64::NAN
+            } else {
+                self.verified_errors.len() as f64 / turns as f64
+            },
+            median_verified_error_deg: deg(median(&self.verified_errors)),
+            p95_verified_error_deg: deg(percentile(&self.verified_errors, 0.95)),
+            max_verified_error_deg: deg(self.verified_errors.iter().copied().fold(0.0, f64::max)),
+            wrong_verified: self.wrong_verified,
+            median_error_deg: deg(median(&self.all_errors)),
+            median_commanded_error_deg: deg(median(&self.commanded_errors)),
+            median_sweep_heading_error_deg: deg(median(&est)),
+            median_sweep_commanded_heading_error_deg: deg(median(&cmd)),
+        }
+    }
+}

@@ -2,7 +2,8 @@
 
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
-use pirouette_io::Dataset;
+use pirouette_io::{Dataset, Motion};
+use pirouette_profile::sweep::{assemble, Sweep, SweepConfig};
 use pirouette_profile::Rop;
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
@@ -27,6 +28,56 @@ pub fn profiles(ds: &Dataset, extractor: &RopExtractor, progress: impl Fn() + Sy
                 .with_context(|| ds.image_path(i).display().to_string())?;
             progress();
             Ok(rop)
+        })
+        .collect()
+}
+
+/// One sweep of a dataset: its frames (indices into the manifest, in
+/// capture order) and their assembly.
+#[derive(Debug, Clone)]
+pub struct DatasetSweep {
+    /// The sweep's id in the manifest.
+    pub id: u32,
+    /// Frame indices of the sweep.
+    pub frames: Vec<usize>,
+    /// Verified turns, headings, loop closure and the 360° profile.
+    pub sweep: Sweep,
+}
+
+/// Groups the frames of a dataset into sweeps (a new sweep starts at a
+/// frame without a commanded turn: the first frame or a forward move) and
+/// assembles each from its profiles.
+pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> Vec<DatasetSweep> {
+    let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
+    for (i, f) in ds.manifest.frames.iter().enumerate() {
+        let turn = matches!(f.motion, Some(Motion::Turn { .. }));
+        match groups.last_mut() {
+            Some((_, frames)) if turn => frames.push(i),
+            _ => groups.push((f.sweep, vec![i])),
+        }
+    }
+    groups
+        .into_par_iter()
+        .map(|(id, frames)| {
+            let commanded: Vec<Option<f64>> = frames
+                .iter()
+                .map(|&i| match ds.manifest.frames[i].motion {
+                    Some(Motion::Turn { turn_deg }) => Some(turn_deg.to_radians()),
+                    _ => None,
+                })
+                .collect();
+            // The first frame of a sweep starts it, whatever its motion.
+            let commanded: Vec<Option<f64>> = commanded
+                .iter()
+                .enumerate()
+                .map(|(k, c)| if k == 0 { None } else { *c })
+                .collect();
+            let sweep_rops: Vec<Rop> = frames.iter().map(|&i| rops[i].clone()).collect();
+            DatasetSweep {
+                id,
+                frames,
+                sweep: assemble(&sweep_rops, &commanded, config),
+            }
         })
         .collect()
 }

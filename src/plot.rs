@@ -134,6 +134,69 @@ pub fn boundary_overlay(image: &RgbImage, boundaries: &[ColumnBoundary]) -> RgbI
     img
 }
 
+/// The top-down sweep diagram (the paper's Fig. 5): the 360° profile around
+/// the robot, seen floor in light grey, obstacles within the soft limit in
+/// red, ranges beyond it in grey, a radial grid every 10 cm and 10°.
+pub fn sweep_diagram(sweep: &Rop) -> RgbImage {
+    let size = 600u32;
+    let mut img = RgbImage::from_pixel(size, size, BACKGROUND);
+    let reach_m = sweep.max_range_m as f64 * 1.3;
+    let scale = (size as f64 / 2.0 - 10.0) / reach_m;
+    let c = (size as f64 / 2.0, size as f64 / 2.0);
+    // Forward (0°) up, left (+90°) to the left.
+    let to_canvas = |r: f64, b: f64| {
+        (
+            (c.0 - r * b.sin() * scale) as f32,
+            (c.1 - r * b.cos() * scale) as f32,
+        )
+    };
+    for i in 0..sweep.len() {
+        if !sweep.seen(i) {
+            continue;
+        }
+        let r = (sweep.range_m[i] as f64).min(reach_m);
+        let b = sweep.bin_centre_rad(i);
+        draw_line_segment_mut(
+            &mut img,
+            (c.0 as f32, c.1 as f32),
+            to_canvas(r, b),
+            Rgb([225, 225, 225]),
+        );
+    }
+    let centre = (c.0 as i32, c.1 as i32);
+    let mut r = GRID_RANGE_M;
+    while r <= reach_m {
+        draw_hollow_circle_mut(&mut img, centre, (r * scale) as i32, GRID);
+        r += GRID_RANGE_M;
+    }
+    draw_hollow_circle_mut(&mut img, centre, (sweep.max_range_m as f64 * scale) as i32, LIMIT);
+    let mut b: f64 = 0.0;
+    while b < 360.0 {
+        draw_line_segment_mut(
+            &mut img,
+            (c.0 as f32, c.1 as f32),
+            to_canvas(reach_m, b.to_radians()),
+            GRID,
+        );
+        b += GRID_BEARING_DEG;
+    }
+    for i in 0..sweep.len() {
+        let r = sweep.range_m[i] as f64;
+        if !r.is_finite() || r > reach_m {
+            continue;
+        }
+        let colour = if sweep.reliable(i).is_some() {
+            MEASURED
+        } else {
+            Rgb([150, 150, 150])
+        };
+        let (x, y) = to_canvas(r, sweep.bin_centre_rad(i));
+        draw_filled_circle_mut(&mut img, (x as i32, y as i32), 2, colour);
+    }
+    draw_filled_circle_mut(&mut img, centre, 4, Rgb([40, 40, 40]));
+    img
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -79,7 +79,7 @@ fn camera_report_shows_models_agree_near_and_diverge_far() {
 
 #[test]
 fn commands_not_yet_available_fail_clearly() {
-    let out = pirouette(&["sweep", "x", "--json"]);
+    let out = pirouette(&["map", "x", "--out", "y"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not available"));
 }

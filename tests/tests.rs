@@ -5,4 +5,5 @@ mod util;
 mod cli;
 mod datasets;
 mod profile;
+mod sweep;
 mod truth;

@@ -16,6 +16,7 @@ mod camera;
 mod plots;
 mod profile;
 mod render;
+mod sweep;
 
 /// Maps from a cheap camera: Radial Obstacle Profiles, vision-based
 /// pirouettes and occupancy grids.
@@ -37,7 +38,7 @@ enum Command {
     /// Radial Obstacle Profiles of every frame of a dataset.
     Profile(profile::ProfileArgs),
     /// Verified turns and 360° radial sweeps of a dataset.
-    Sweep(NotYet),
+    Sweep(sweep::SweepArgs),
     /// Build the occupancy grid map of a dataset or laser log.
     Map(MapArgs),
     /// Place index: build it from datasets.
@@ -70,8 +71,9 @@ enum EvalCommand {
     /// Profiles against truth/rop: median |relative range error|, share of
     /// truth bins within 10 %, missed, and false ranges on obstacle-free bins.
     Profile(profile::EvalProfileArgs),
-    /// Verified turns against true headings.
-    Sweep(NotYet),
+    /// Verified turns against true headings: per-turn error of the estimate
+    /// and of the command, heading error over each sweep, fallbacks.
+    Sweep(sweep::EvalSweepArgs),
     /// Trajectory and map against truth.
     Map(EvalMapArgs),
 }
@@ -148,13 +150,13 @@ pub fn run() -> Result<()> {
         Command::Render(a) => render::render(a),
         Command::Camera(a) => camera::camera(a),
         Command::Profile(a) => profile::profile(a),
-        Command::Sweep(_) => not_yet("sweep"),
+        Command::Sweep(a) => sweep::sweep(a),
         Command::Map(_) => not_yet("map"),
         Command::Places(PlacesCommand::Build(_)) => not_yet("places build"),
         Command::Localise(_) => not_yet("localise"),
         Command::Graph(GraphCommand::Optimise(_)) => not_yet("graph optimise"),
         Command::Eval(EvalCommand::Profile(a)) => profile::eval_profile(a),
-        Command::Eval(EvalCommand::Sweep(_)) => not_yet("eval sweep"),
+        Command::Eval(EvalCommand::Sweep(a)) => sweep::eval_sweep(a),
         Command::Eval(EvalCommand::Map(_)) => not_yet("eval map"),
     }
 }

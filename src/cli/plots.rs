@@ -55,3 +55,15 @@ pub fn profile_plots(
     bar.finish_and_clear();
     Ok(())
 }
+
+/// One top-down diagram per sweep: `sweep-<id>.png`.
+pub fn sweep_plots(sweeps: &[pirouette::pipeline::DatasetSweep], dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for s in sweeps {
+        save_png(
+            &plot::sweep_diagram(&s.sweep.rop),
+            &dir.join(format!("sweep-{:02}.png", s.id)),
+        )?;
+    }
+    Ok(())
+}

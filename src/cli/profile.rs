@@ -16,9 +16,6 @@ pub struct ProfileOptions {
     /// the most accurate one the dataset's camera allows.
     #[arg(long, value_parser = ["paper", "pinhole"])]
     model: Option<String>,
-    /// Bin width of the profile, degrees (1° default, down to 0.2°).
-    #[arg(long = "bin-deg", default_value_t = 1.0)]
-    bin_deg: f64,
     /// Outlier filter over the bins: median3 (robust), mean3 (the paper's) or none.
     #[arg(long, default_value = "median3", value_parser = ["median3", "mean3", "none"])]
     filter: String,
@@ -43,13 +40,13 @@ impl ProfileOptions {
             .map(|m| m.parse().expect("clap checked the value"))
     }
 
-    pub fn config(&self) -> Result<VisionConfig> {
-        if !(self.bin_deg.is_finite() && self.bin_deg >= 0.05 && self.bin_deg <= 10.0) {
-            bail!("--bin-deg {} is outside 0.05..10", self.bin_deg);
+    pub fn config(&self, bin_deg: f64) -> Result<VisionConfig> {
+        if !(bin_deg.is_finite() && (0.05..=10.0).contains(&bin_deg)) {
+            bail!("--bin-deg {bin_deg} is outside 0.05..10");
         }
         let filter: OutlierFilter = self.filter.parse().map_err(anyhow::Error::msg)?;
         Ok(VisionConfig {
-            bin_width_rad: self.bin_deg.to_radians(),
+            bin_width_rad: bin_deg.to_radians(),
             min_obstacle_height_m: self.min_obstacle_height,
             min_brightness_step: self.min_brightness_step,
             min_chroma_step: self.min_chroma_step,
@@ -67,6 +64,9 @@ pub struct ProfileArgs {
     dataset: PathBuf,
     #[command(flatten)]
     options: ProfileOptions,
+    /// Bin width of the profile, degrees (down to 0.2°: one image column).
+    #[arg(long = "bin-deg", default_value_t = 1.0)]
+    bin_deg: f64,
     /// JSON Lines on stdout: one object per frame.
     #[arg(long)]
     json: bool,
@@ -83,6 +83,9 @@ pub struct EvalProfileArgs {
     datasets: Vec<PathBuf>,
     #[command(flatten)]
     options: ProfileOptions,
+    /// Bin width of the profile, degrees.
+    #[arg(long = "bin-deg", default_value_t = 1.0)]
+    bin_deg: f64,
     /// JSON Lines on stdout: one object per dataset and model, then the overall scores.
     #[arg(long)]
     json: bool,
@@ -96,7 +99,7 @@ fn json_value(x: f64) -> serde_json::Value {
 /// `pirouette profile`.
 pub fn profile(a: ProfileArgs) -> Result<()> {
     let ds = super::open_dataset(&a.dataset)?;
-    let extractor = pipeline::extractor(&ds, a.options.model(), a.options.config()?)?;
+    let extractor = pipeline::extractor(&ds, a.options.model(), a.options.config(a.bin_deg)?)?;
     let bar = super::progress(ds.manifest.frames.len(), "profile");
     let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
     bar.finish_and_clear();
@@ -144,7 +147,7 @@ pub fn profile(a: ProfileArgs) -> Result<()> {
 
 /// `pirouette eval profile`.
 pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
-    let config = a.options.config()?;
+    let config = a.options.config(a.bin_deg)?;
     let mut overall: Vec<(ModelKind, ProfileTally)> = Vec::new();
     if !a.json {
         outln!(
@@ -199,7 +202,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
     Ok(())
 }
 
-fn model_name(m: ModelKind) -> &'static str {
+pub fn model_name(m: ModelKind) -> &'static str {
     match m {
         ModelKind::Paper => "paper",
         ModelKind::Pinhole => "pinhole",

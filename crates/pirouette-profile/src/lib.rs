@@ -4,6 +4,8 @@
 //! - [`Rop`]: the profile, its bins and colour tags.
 //! - [`ColourTag`]: an obstacle colour normalised for lighting.
 //! - [`filter`]: outlier filters (the paper's 3-bin mean, a robust median).
+//! - [`matching`]: rotation verification by sliding one profile over another.
+//! - [`sweep`]: the profiles of a pirouette joined into a 360° radial sweep.
 //!
 //! ```
 //! use pirouette_profile::Rop;
@@ -16,6 +18,8 @@
 #![deny(missing_docs)]
 
 pub mod filter;
+pub mod matching;
 mod rop;
+pub mod sweep;
 
 pub use rop::{ColourTag, ProfileError, Rop};

@@ -1,0 +1,238 @@
+//! `pirouette sweep` and `pirouette eval sweep`.
+
+use super::profile::ProfileOptions;
+use anyhow::{bail, Result};
+use pirouette::eval::SweepTally;
+use pirouette::io::Motion;
+use pirouette::pipeline::{self, DatasetSweep};
+use pirouette::profile::matching::{MatchConfig, Measure};
+use pirouette::profile::sweep::SweepConfig;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Settings of rotation verification.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SweepOptions {
+    #[command(flatten)]
+    profile: ProfileOptions,
+    /// Bin width of the profiles matched, degrees: fine bins (one image
+    /// column is about 0.2°) let matching resolve a fraction of a degree.
+    #[arg(long = "bin-deg", default_value_t = 0.25)]
+    bin_deg: f64,
+    /// Dissimilarity: robust, absolute, squared or dct (the paper's).
+    #[arg(long, default_value = "robust", value_parser = ["robust", "absolute", "squared", "dct"])]
+    measure: String,
+    /// Half-width of the search window around the commanded turn, degrees.
+    #[arg(long, default_value_t = 15.0)]
+    window_deg: f64,
+    /// Leave the loop of a full pirouette open.
+    #[arg(long)]
+    no_loop_closure: bool,
+}
+
+impl SweepOptions {
+    fn config(&self) -> Result<SweepConfig> {
+        if !(self.window_deg.is_finite() && self.window_deg > 0.0 && self.window_deg <= 90.0) {
+            bail!("--window-deg {} is outside (0, 90]", self.window_deg);
+        }
+        let measure: Measure = self.measure.parse().map_err(anyhow::Error::msg)?;
+        Ok(SweepConfig {
+            matching: MatchConfig {
+                window_rad: self.window_deg.to_radians(),
+                measure,
+                ..MatchConfig::default()
+            },
+            close_loop: !self.no_loop_closure,
+            ..SweepConfig::default()
+        })
+    }
+
+    fn run(&self, ds: &pirouette::io::Dataset) -> Result<Vec<DatasetSweep>> {
+        let extractor = pipeline::extractor(ds, self.profile.model(), self.profile.config(self.bin_deg)?)?;
+        let bar = super::progress(ds.manifest.frames.len(), "profile");
+        let rops = pipeline::profiles(ds, &extractor, || bar.inc(1))?;
+        bar.finish_and_clear();
+        Ok(pipeline::sweeps(ds, &rops, &self.config()?))
+    }
+}
+
+/// Arguments of `pirouette sweep`.
+#[derive(clap::Args, Debug)]
+pub struct SweepArgs {
+    /// The dataset folder.
+    dataset: PathBuf,
+    #[command(flatten)]
+    options: SweepOptions,
+    /// JSON Lines on stdout: one object per frame.
+    #[arg(long)]
+    json: bool,
+    /// Write one top-down sweep diagram per sweep into this folder.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// Arguments of `pirouette eval sweep`.
+#[derive(clap::Args, Debug)]
+pub struct EvalSweepArgs {
+    /// Dataset folders with true poses.
+    #[arg(required = true)]
+    datasets: Vec<PathBuf>,
+    #[command(flatten)]
+    options: SweepOptions,
+    /// JSON Lines on stdout: one object per dataset, then the overall scores.
+    #[arg(long)]
+    json: bool,
+}
+
+fn deg(x: f64) -> serde_json::Value {
+    json!((x.to_degrees() * 1e3).round() / 1e3)
+}
+
+/// `pirouette sweep`.
+pub fn sweep(a: SweepArgs) -> Result<()> {
+    let ds = super::open_dataset(&a.dataset)?;
+    let sweeps = a.options.run(&ds)?;
+    for s in &sweeps {
+        for (k, &i) in s.frames.iter().enumerate() {
+            let f = &ds.manifest.frames[i];
+            let commanded = match (k, f.motion) {
+                (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg),
+                _ => None,
+            };
+            let t = s.sweep.turns[k];
+            if a.json {
+                let line = json!({
+                    "image": f.image,
+                    "sweep": s.id,
+                    "commanded_turn_deg": commanded,
+                    "estimated_turn_deg": t.map(|t| deg(t.turn_rad)),
+                    "confidence": t.map(|t| (t.confidence * 1e3).round() / 1e3),
+                    "fallback": t.is_some_and(|t| t.fallback),
+                    "evidence": t.map(|t| t.evidence.name()),
+                    "candidate_turn_deg": t.and_then(|t| t.candidate_rad).map(deg),
+                    "heading_deg": deg(s.sweep.heading_rad[k]),
+                });
+                outln!("{line}")?;
+            } else {
+                match (commanded, t) {
+                    (Some(c), Some(t)) => outln!(
+                        "{:<22} sweep {:>2}  commanded {:>7.2}°  estimated {:>7.2}°  confidence {:.2}  {}",
+                        f.image,
+                        s.id,
+                        c,
+                        t.turn_rad.to_degrees(),
+                        t.confidence,
+                        if t.fallback {
+                            format!("FALLBACK ({})", t.evidence.name())
+                        } else {
+                            format!("verified by {}", t.evidence.name())
+                        }
+                    )?,
+                    _ => outln!("{:<22} sweep {:>2}  first frame of the sweep", f.image, s.id)?,
+                }
+            }
+        }
+        if !a.json {
+            if let Some(c) = s.sweep.closure {
+                if c.applied {
+                    outln!(
+                        "  loop closed against frame {}: residual {:.2}° spread over the turns",
+                        c.frame,
+                        c.residual_rad.to_degrees()
+                    )?;
+                } else if c.residual_rad.is_nan() {
+                    outln!(
+                        "  loop not closed: the closing match fell back ({})",
+                        c.closing.evidence.name()
+                    )?;
+                } else {
+                    outln!(
+                        "  loop residual {:.2}° too large to spread: left open",
+                        c.residual_rad.to_degrees()
+                    )?;
+                }
+            }
+        }
+    }
+    if let Some(dir) = &a.plot {
+        super::plots::sweep_plots(&sweeps, dir)?;
+        if !a.json {
+            outln!("sweep diagrams written to {}", dir.display())?;
+        }
+    }
+    Ok(())
+}
+
+/// `pirouette eval sweep`.
+pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
+    let mut overall = SweepTally::default();
+    if !a.json {
+        outln!(
+            "{:<16} {:>5} {:>9} {:>9} {:>9} {:>9} {:>6} {:>10} {:>9} {:>9}",
+            "dataset",
+            "turns",
+            "verified",
+            "med err",
+            "p95 err",
+            "max err",
+            ">3° ok",
+            "cmd err",
+            "sweep hd",
+            "cmd hd"
+        )?;
+    }
+    for path in &a.datasets {
+        let ds = super::open_dataset(path)?;
+        let Some(truth) = ds.truth_poses() else {
+            bail!(
+                "{}: frames without truth poses cannot be evaluated",
+                ds.manifest_path().display()
+            );
+        };
+        let sweeps = a.options.run(&ds)?;
+        let mut tally = SweepTally::default();
+        for s in &sweeps {
+            let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
+            let cmd: Vec<Option<f64>> = s
+                .frames
+                .iter()
+                .enumerate()
+                .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
+                    (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
+                    _ => None,
+                })
+                .collect();
+            tally.add(&s.sweep, &theta, &cmd);
+        }
+        print_scores(&ds.manifest.name, &tally, a.json)?;
+        overall.merge(&tally);
+    }
+    if a.datasets.len() > 1 {
+        print_scores("overall", &overall, a.json)?;
+    }
+    Ok(())
+}
+
+fn print_scores(name: &str, tally: &SweepTally, json: bool) -> Result<()> {
+    let s = tally.scores();
+    if json {
+        let mut v = serde_json::to_value(&s)?;
+        v["dataset"] = json!(name);
+        outln!("{v}")?;
+    } else {
+        outln!(
+            "{:<16} {:>5} {:>8.1}% {:>8.2}° {:>8.2}° {:>8.2}° {:>6} {:>9.2}° {:>8.2}° {:>8.2}°",
+            name,
+            s.turns,
+            s.verified * 100.0,
+            s.median_verified_error_deg,
+            s.p95_verified_error_deg,
+            s.max_verified_error_deg,
+            s.wrong_verified,
+            s.median_commanded_error_deg,
+            s.median_sweep_heading_error_deg,
+            s.median_sweep_commanded_heading_error_deg
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,105 @@
+//! Rotation verification and sweeps against true headings.
+
+use crate::util::{pirouette, rendered, shared, shared_datasets};
+use pirouette::eval::{SweepScores, SweepTally};
+use pirouette::io::{Dataset, Motion};
+use pirouette::pipeline;
+use pirouette::profile::sweep::SweepConfig;
+use pirouette::vision::VisionConfig;
+use std::path::Path;
+
+fn scores(root: &Path) -> SweepScores {
+    let ds = Dataset::open(root).unwrap();
+    let config = VisionConfig {
+        bin_width_rad: 0.25f64.to_radians(),
+        ..VisionConfig::default()
+    };
+    let ex = pipeline::extractor(&ds, None, config).unwrap();
+    let rops = pipeline::profiles(&ds, &ex, || {}).unwrap();
+    let truth = ds.truth_poses().unwrap();
+    let mut tally = SweepTally::default();
+    for s in pipeline::sweeps(&ds, &rops, &SweepConfig::default()) {
+        let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
+        let cmd: Vec<Option<f64>> = s
+            .frames
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
+                (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
+                _ => None,
+            })
+            .collect();
+        tally.add(&s.sweep, &theta, &cmd);
+    }
+    tally.scores()
+}
+
+#[test]
+fn verified_turns_are_accurate_and_wrong_ones_are_flagged() {
+    let Some(shared) = shared("verified_turns_are_accurate_and_wrong_ones_are_flagged") else {
+        return;
+    };
+    for root in shared_datasets(&shared) {
+        let name = root.file_name().unwrap().to_string_lossy().to_string();
+        let s = scores(&root);
+        eprintln!("{name}: {s:?}");
+        assert!(s.turns >= 11, "{name}");
+        // No turn off by more than 3° is passed off as verified.
+        assert_eq!(s.wrong_verified, 0, "{name}: {s:?}");
+        assert!(s.median_verified_error_deg <= 0.35, "{name}: {s:?}");
+        assert!(s.p95_verified_error_deg <= 1.5, "{name}: {s:?}");
+        // Verification beats the command by far.
+        assert!(
+            s.median_verified_error_deg * 4.0 < s.median_commanded_error_deg,
+            "{name}: {s:?}"
+        );
+        if name != "field-open" {
+            // Target 90 %; measured 69-86 % (BENCHMARKS.md): guarded there.
+            assert!(s.verified >= 0.65, "{name}: {s:?}");
+        }
+    }
+}
+
+#[test]
+fn rendered_pirouettes_verify_turns() {
+    let s = scores(&rendered("field-multi", 17));
+    assert!(s.turns == 71, "{s:?}");
+    assert_eq!(s.wrong_verified, 0, "{s:?}");
+    assert!(s.verified >= 0.7 && s.median_verified_error_deg <= 0.35, "{s:?}");
+    // Joined and loop-closed, sweeps end far nearer the true heading than
+    // the commands do.
+    assert!(
+        s.median_sweep_heading_error_deg < s.median_sweep_commanded_heading_error_deg,
+        "{s:?}"
+    );
+}
+
+#[test]
+fn sweep_json_follows_the_contract() {
+    let root = rendered("field-pirouette", 17);
+    let dir = tempfile::tempdir().unwrap();
+    let out = pirouette(&[
+        "sweep",
+        root.to_str().unwrap(),
+        "--json",
+        "--plot",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let ds = Dataset::open(&root).unwrap();
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), ds.manifest.frames.len());
+    assert!(lines[0]["commanded_turn_deg"].is_null() && lines[0]["estimated_turn_deg"].is_null());
+    for l in &lines[1..] {
+        let cmd = l["commanded_turn_deg"].as_f64().unwrap();
+        let est = l["estimated_turn_deg"].as_f64().unwrap();
+        let fallback = l["fallback"].as_bool().unwrap();
+        assert_eq!(l["sweep"], 0);
+        assert!((0.0..=1.0).contains(&l["confidence"].as_f64().unwrap()));
+        assert!(fallback || (est - cmd).abs() <= 15.0, "{l}");
+    }
+    assert!(dir.path().join("sweep-00.png").is_file());
+}
