@@ -1,9 +1,10 @@
 //! `pirouette render` and `pirouette example`.
 
 use anyhow::{Context, Result};
-use pirouette::eval::ProfileTally;
+use pirouette::eval::{ProfileTally, SweepTally};
 use pirouette::io::{Dataset, Motion};
 use pirouette::pipeline;
+use pirouette::profile::sweep::SweepConfig;
 use pirouette::sim::{render_dataset, Scene, BUILTIN_SCENES};
 use pirouette::vision::VisionConfig;
 use std::path::{Path, PathBuf};
@@ -140,9 +141,55 @@ pub fn example(a: ExampleArgs) -> Result<()> {
     let plots = a.out.join("profiles");
     let camera = ds.camera(None)?;
     super::plots::profile_plots(&ds, &extractor, &camera, &rops, &plots)?;
+
+    // Verified turns and sweeps, on fine profiles.
+    let fine = VisionConfig {
+        bin_width_rad: 0.25f64.to_radians(),
+        ..VisionConfig::default()
+    };
+    let extractor = pipeline::extractor(&ds, None, fine)?;
+    let bar = super::progress(ds.manifest.frames.len(), "sweep");
+    let fine_rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
+    bar.finish_and_clear();
+    let sweeps = pipeline::sweeps(&ds, &fine_rops, &SweepConfig::default());
+    if let Some(truth) = ds.truth_poses() {
+        let mut tally = SweepTally::default();
+        for s in &sweeps {
+            let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
+            let cmd: Vec<Option<f64>> = s
+                .frames
+                .iter()
+                .enumerate()
+                .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
+                    (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
+                    _ => None,
+                })
+                .collect();
+            tally.add(&s.sweep, &theta, &cmd);
+        }
+        let t = tally.scores();
+        outln!(
+            "turns     {:.0} % verified, median error {:.2}° (commanded {:.2}°); verified turns off by over 3°: {}",
+            t.verified * 100.0,
+            t.median_verified_error_deg,
+            t.median_commanded_error_deg,
+            t.wrong_verified
+        )?;
+        outln!(
+            "sweeps    heading error accumulated over a sweep {:.2}° median (commanded {:.2}°)",
+            t.median_sweep_heading_error_deg,
+            t.median_sweep_commanded_heading_error_deg
+        )?;
+    }
+    let sweep_dir = a.out.join("sweeps");
+    super::plots::sweep_plots(&sweeps, &sweep_dir)?;
     outln!(
         "\nlook at  {}  (per frame: -boundary.png, -rop.png, -floor.png)",
         plots.display()
+    )?;
+    outln!(
+        "         {}  (one 360° sweep diagram per spot)",
+        sweep_dir.display()
     )?;
     Ok(())
 }

@@ -374,7 +374,7 @@ fn cost_curve(
         colour_pairs: vec![0; n],
     };
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
-    let mut planner = DctPlanner::new();
+    let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
     let mut xa = Vec::new();
     let mut xb = Vec::new();
     for (j, k) in (k_lo..=k_hi).enumerate() {
@@ -409,8 +409,8 @@ fn cost_curve(
         if n_range == 0 {
             continue;
         }
-        if config.measure == Measure::Dct {
-            range_cost = dct_distance(&mut planner, &mut xa, &mut xb);
+        if let Some(planner) = planner.as_mut() {
+            range_cost = dct_distance(planner, &mut xa, &mut xb);
         }
         curve.overlap[j] = n_range;
         curve.informative[j] = n_info;
