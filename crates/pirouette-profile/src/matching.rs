@@ -163,6 +163,28 @@ struct Cell {
     chroma: Option<[f32; 2]>,
 }
 
+/// The matching signal as contiguous arrays (NaN where absent), for the
+/// branch-free inner loop.
+struct Signals {
+    inv: Vec<f32>,
+    chroma_r: Vec<f32>,
+    chroma_g: Vec<f32>,
+}
+
+fn signals(cells: &[Cell]) -> Signals {
+    Signals {
+        inv: cells.iter().map(|c| c.inv).collect(),
+        chroma_r: cells
+            .iter()
+            .map(|c| c.chroma.map_or(f32::NAN, |x| x[0]))
+            .collect(),
+        chroma_g: cells
+            .iter()
+            .map(|c| c.chroma.map_or(f32::NAN, |x| x[1]))
+            .collect(),
+    }
+}
+
 fn cells(rop: &Rop) -> Vec<Cell> {
     (0..rop.len())
         .map(|i| {
@@ -326,14 +348,6 @@ fn noise_cost_sd(measure: Measure) -> f64 {
     }
 }
 
-fn rho(measure: Measure, e: f32) -> f32 {
-    match measure {
-        Measure::Absolute => e.abs(),
-        Measure::Squared | Measure::Dct => e * e,
-        Measure::Robust => (e * e).min(9.0),
-    }
-}
-
 /// Robust standard deviation (1.4826 · median absolute deviation) of the
 /// inverse-range residuals over the informative pairs at `shift`, each
 /// residual being the difference of two bins (so divided by √2).
@@ -375,53 +389,126 @@ fn cost_curve(
     };
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
+    let (sa, sb) = (signals(a), signals(b));
     let mut xa = Vec::new();
     let mut xb = Vec::new();
     for (j, k) in (k_lo..=k_hi).enumerate() {
         let shift = offset + k;
-        let (mut range_cost, mut colour_cost) = (0f64, 0f64);
-        let (mut n_range, mut n_colour, mut n_info) = (0usize, 0usize, 0usize);
-        xa.clear();
-        xb.clear();
         let i_lo = (-shift).max(0) as usize;
         let i_hi = (b.len() as i64 - shift).clamp(0, a.len() as i64) as usize;
-        for i in i_lo..i_hi {
-            let (ca, cb) = (a[i], b[(i as i64 + shift) as usize]);
-            if ca.inv.is_nan() || cb.inv.is_nan() {
-                continue;
-            }
-            n_range += 1;
-            if ca.inv > 0.0 || cb.inv > 0.0 {
-                n_info += 1;
-            }
-            if config.measure == Measure::Dct {
-                xa.push(ca.inv * inv_s);
-                xb.push(cb.inv * inv_s);
-            } else {
-                range_cost += rho(config.measure, (ca.inv - cb.inv) * inv_s) as f64;
-            }
-            if let (Some(p), Some(q)) = (ca.chroma, cb.chroma) {
-                let e = (p[0] - q[0]).abs().max((p[1] - q[1]).abs()) * chroma_s;
-                colour_cost += rho(config.measure, e) as f64;
-                n_colour += 1;
-            }
+        if i_hi <= i_lo {
+            continue;
         }
+        let len = i_hi - i_lo;
+        let b_lo = (i_lo as i64 + shift) as usize;
+        let (ia, ib) = (&sa.inv[i_lo..i_hi], &sb.inv[b_lo..b_lo + len]);
+        let (ra, rb) = (&sa.chroma_r[i_lo..i_hi], &sb.chroma_r[b_lo..b_lo + len]);
+        let (ga, gb) = (&sa.chroma_g[i_lo..i_hi], &sb.chroma_g[b_lo..b_lo + len]);
+        let pair = Pair {
+            ia,
+            ib,
+            ra,
+            rb,
+            ga,
+            gb,
+            inv_s,
+            chroma_s,
+        };
+        let sums = match config.measure {
+            Measure::Absolute => pair.sums(|e: f32| e.abs()),
+            Measure::Squared | Measure::Dct => pair.sums(|e: f32| e * e),
+            Measure::Robust => pair.sums(|e: f32| (e * e).min(9.0)),
+        };
+        let Sums {
+            range_cost,
+            colour_cost,
+            n_range,
+            n_info,
+            n_colour,
+        } = sums;
         if n_range == 0 {
             continue;
         }
+        let mut range_cost = range_cost as f64;
         if let Some(planner) = planner.as_mut() {
+            xa.clear();
+            xb.clear();
+            for i in 0..len {
+                if !(ia[i].is_nan() || ib[i].is_nan()) {
+                    xa.push(ia[i] * inv_s);
+                    xb.push(ib[i] * inv_s);
+                }
+            }
             range_cost = dct_distance(planner, &mut xa, &mut xb);
         }
-        curve.overlap[j] = n_range;
-        curve.informative[j] = n_info;
-        curve.colour_pairs[j] = n_colour;
+        curve.overlap[j] = n_range as usize;
+        curve.informative[j] = n_info as usize;
+        curve.colour_pairs[j] = n_colour as usize;
         curve.cost[j] = if n_info == 0 {
             0.0
         } else {
-            (range_cost + config.colour_weight as f64 * colour_cost) / n_info as f64
+            (range_cost + config.colour_weight as f64 * colour_cost as f64) / n_info as f64
         };
     }
     curve
+}
+
+/// Two aligned stretches of signal.
+struct Pair<'a> {
+    ia: &'a [f32],
+    ib: &'a [f32],
+    ra: &'a [f32],
+    rb: &'a [f32],
+    ga: &'a [f32],
+    gb: &'a [f32],
+    inv_s: f32,
+    chroma_s: f32,
+}
+
+/// Cost sums over an overlap.
+struct Sums {
+    range_cost: f32,
+    colour_cost: f32,
+    n_range: u32,
+    n_info: u32,
+    n_colour: u32,
+}
+
+impl Pair<'_> {
+    /// Branch-free over the overlap (NaN marks what a bin lacks), one
+    /// monomorphised loop per measure.
+    #[inline(always)]
+    fn sums(&self, rho: impl Fn(f32) -> f32) -> Sums {
+        let mut s = Sums {
+            range_cost: 0.0,
+            colour_cost: 0.0,
+            n_range: 0,
+            n_info: 0,
+            n_colour: 0,
+        };
+        let n = self.ia.len();
+        let (ib, ra, rb, ga, gb) = (
+            &self.ib[..n],
+            &self.ra[..n],
+            &self.rb[..n],
+            &self.ga[..n],
+            &self.gb[..n],
+        );
+        for i in 0..n {
+            let (x, y) = (self.ia[i], ib[i]);
+            let seen = !(x.is_nan() || y.is_nan());
+            let info = seen & ((x > 0.0) | (y > 0.0));
+            let c = rho((x - y) * self.inv_s);
+            s.range_cost += if info { c } else { 0.0 };
+            s.n_range += seen as u32;
+            s.n_info += info as u32;
+            let e = (ra[i] - rb[i]).abs().max((ga[i] - gb[i]).abs()) * self.chroma_s;
+            let has_colour = seen & !e.is_nan();
+            s.colour_cost += if has_colour { rho(e) } else { 0.0 };
+            s.n_colour += has_colour as u32;
+        }
+        s
+    }
 }
 
 /// Squared distance of the lowest third of the DCT-II coefficients (the
