@@ -282,3 +282,18 @@ impl SweepTally {
         }
     }
 }
+
+/// Tallies the sweeps of a dataset against its true headings; `None` when
+/// some frame has no true pose.
+pub fn tally_sweeps(
+    ds: &pirouette_io::Dataset,
+    sweeps: &[crate::pipeline::DatasetSweep],
+) -> Option<SweepTally> {
+    let truth = ds.truth_poses()?;
+    let mut tally = SweepTally::default();
+    for s in sweeps {
+        let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
+        tally.add(&s.sweep, &theta, &crate::pipeline::commanded_turns(ds, &s.frames));
+    }
+    Some(tally)
+}

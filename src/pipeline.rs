@@ -81,3 +81,16 @@ pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> Vec<DatasetSw
         })
         .collect()
 }
+
+/// The commanded turn before each of a sweep's frames, radians: `None` for
+/// its first frame (which starts the sweep, whatever its motion).
+pub fn commanded_turns(ds: &Dataset, frames: &[usize]) -> Vec<Option<f64>> {
+    frames
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
+            (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
+            _ => None,
+        })
+        .collect()
+}

@@ -1,8 +1,8 @@
 //! Rotation verification and sweeps against true headings.
 
 use crate::util::{pirouette, rendered, shared, shared_datasets};
-use pirouette::eval::{SweepScores, SweepTally};
-use pirouette::io::{Dataset, Motion};
+use pirouette::eval::{tally_sweeps, SweepScores};
+use pirouette::io::Dataset;
 use pirouette::pipeline;
 use pirouette::profile::sweep::SweepConfig;
 use pirouette::vision::VisionConfig;
@@ -16,21 +16,8 @@ fn scores(root: &Path) -> SweepScores {
     };
     let ex = pipeline::extractor(&ds, None, config).unwrap();
     let rops = pipeline::profiles(&ds, &ex, || {}).unwrap();
-    let truth = ds.truth_poses().unwrap();
-    let mut tally = SweepTally::default();
-    for s in pipeline::sweeps(&ds, &rops, &SweepConfig::default()) {
-        let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
-        let cmd: Vec<Option<f64>> = s
-            .frames
-            .iter()
-            .enumerate()
-            .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
-                (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
-                _ => None,
-            })
-            .collect();
-        tally.add(&s.sweep, &theta, &cmd);
-    }
+    let sweeps = pipeline::sweeps(&ds, &rops, &SweepConfig::default());
+    let tally = tally_sweeps(&ds, &sweeps).expect("true poses");
     tally.scores()
 }
 

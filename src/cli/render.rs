@@ -1,7 +1,7 @@
 //! `pirouette render` and `pirouette example`.
 
 use anyhow::{Context, Result};
-use pirouette::eval::{ProfileTally, SweepTally};
+use pirouette::eval::{tally_sweeps, ProfileTally};
 use pirouette::io::{Dataset, Motion};
 use pirouette::pipeline;
 use pirouette::profile::sweep::SweepConfig;
@@ -152,21 +152,7 @@ pub fn example(a: ExampleArgs) -> Result<()> {
     let fine_rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
     bar.finish_and_clear();
     let sweeps = pipeline::sweeps(&ds, &fine_rops, &SweepConfig::default());
-    if let Some(truth) = ds.truth_poses() {
-        let mut tally = SweepTally::default();
-        for s in &sweeps {
-            let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
-            let cmd: Vec<Option<f64>> = s
-                .frames
-                .iter()
-                .enumerate()
-                .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
-                    (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
-                    _ => None,
-                })
-                .collect();
-            tally.add(&s.sweep, &theta, &cmd);
-        }
+    if let Some(tally) = tally_sweeps(&ds, &sweeps) {
         let t = tally.scores();
         outln!(
             "turns     {:.0} % verified, median error {:.2}° (commanded {:.2}°); verified turns off by over 3°: {}",

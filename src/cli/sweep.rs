@@ -2,8 +2,7 @@
 
 use super::profile::ProfileOptions;
 use anyhow::{bail, Result};
-use pirouette::eval::SweepTally;
-use pirouette::io::Motion;
+use pirouette::eval::{tally_sweeps, SweepTally};
 use pirouette::pipeline::{self, DatasetSweep};
 use pirouette::profile::matching::{MatchConfig, Measure};
 use pirouette::profile::sweep::SweepConfig;
@@ -93,12 +92,10 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
     let ds = super::open_dataset(&a.dataset)?;
     let sweeps = a.options.run(&ds)?;
     for s in &sweeps {
+        let commanded = pipeline::commanded_turns(&ds, &s.frames);
         for (k, &i) in s.frames.iter().enumerate() {
             let f = &ds.manifest.frames[i];
-            let commanded = match (k, f.motion) {
-                (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg),
-                _ => None,
-            };
+            let commanded = commanded[k].map(f64::to_degrees);
             let t = s.sweep.turns[k];
             if a.json {
                 let line = json!({
@@ -183,27 +180,14 @@ pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
     }
     for path in &a.datasets {
         let ds = super::open_dataset(path)?;
-        let Some(truth) = ds.truth_poses() else {
+        if ds.truth_poses().is_none() {
             bail!(
                 "{}: frames without truth poses cannot be evaluated",
                 ds.manifest_path().display()
             );
-        };
-        let sweeps = a.options.run(&ds)?;
-        let mut tally = SweepTally::default();
-        for s in &sweeps {
-            let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
-            let cmd: Vec<Option<f64>> = s
-                .frames
-                .iter()
-                .enumerate()
-                .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
-                    (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
-                    _ => None,
-                })
-                .collect();
-            tally.add(&s.sweep, &theta, &cmd);
         }
+        let sweeps = a.options.run(&ds)?;
+        let tally = tally_sweeps(&ds, &sweeps).expect("truth poses checked above");
         print_scores(&ds.manifest.name, &tally, a.json)?;
         overall.merge(&tally);
     }
