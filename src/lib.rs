@@ -5,7 +5,8 @@
 //! library crates:
 //! - [`geom`]: SE(2) poses and angles;
 //! - [`camera`]: the paper's IPM and the pinhole model, pixel ↔ floor tables;
-//! - [`profile`]: the Radial Obstacle Profile;
+//! - [`profile`]: the Radial Obstacle Profile, rotation matching, sweeps;
+//! - [`grid`]: the occupancy grid and map export;
 //! - [`io`]: the `rop-dataset/1` format and other files;
 //! - [`vision`]: floor segmentation and ROPs from images;
 //! - [`sim`]: the renderer of scenes into datasets;
@@ -21,6 +22,7 @@
 
 pub use pirouette_camera as camera;
 pub use pirouette_geom as geom;
+pub use pirouette_grid as grid;
 pub use pirouette_io as io;
 pub use pirouette_profile as profile;
 pub use pirouette_sim as sim;
