@@ -68,6 +68,32 @@ pub fn rop_diagram(rop: &Rop, truth: Option<&Rop>) -> RgbImage {
     img
 }
 
+/// A radial grid around `centre`: circles every [`GRID_RANGE_M`] out to
+/// `reach_m`, the soft limit in orange, rays every [`GRID_BEARING_DEG`] over
+/// `bearings_deg` (inclusive); `polar(range, bearing)` places a point.
+fn radial_grid(
+    img: &mut RgbImage,
+    centre: (f32, f32),
+    scale: f64,
+    reach_m: f64,
+    max_range_m: f64,
+    bearings_deg: (f64, f64),
+    polar: impl Fn(f64, f64) -> (f32, f32),
+) {
+    let c = (centre.0 as i32, centre.1 as i32);
+    let mut r = GRID_RANGE_M;
+    while r <= reach_m {
+        draw_hollow_circle_mut(img, c, (r * scale) as i32, GRID);
+        r += GRID_RANGE_M;
+    }
+    draw_hollow_circle_mut(img, c, (max_range_m * scale) as i32, LIMIT);
+    let mut b = bearings_deg.0;
+    while b <= bearings_deg.1 + 1e-9 {
+        draw_line_segment_mut(img, centre, polar(reach_m, b.to_radians()), GRID);
+        b += GRID_BEARING_DEG;
+    }
+}
+
 /// The top-down floor view: the camera image warped onto the floor (robot
 /// at the bottom centre, forward up), a radial grid every 10 cm and 10°,
 /// and the profile's obstacle points in red.
@@ -96,19 +122,16 @@ pub fn floor_view(camera: &impl CameraModel, image: &RgbImage, rop: &Rop) -> Rgb
             }
         }
     }
-    let centre = (origin.0 as i32, origin.1 as i32);
-    let mut r = GRID_RANGE_M;
-    while r <= reach_m {
-        draw_hollow_circle_mut(&mut img, centre, (r * scale) as i32, GRID);
-        r += GRID_RANGE_M;
-    }
-    draw_hollow_circle_mut(&mut img, centre, (rop.max_range_m as f64 * scale) as i32, LIMIT);
-    let mut b: f64 = -90.0;
-    while b <= 90.0 {
-        let end = to_canvas(Point2::from_polar(reach_m, f64::to_radians(b)));
-        draw_line_segment_mut(&mut img, (origin.0 as f32, origin.1 as f32), end, GRID);
-        b += GRID_BEARING_DEG;
-    }
+    let polar = |r: f64, b: f64| to_canvas(Point2::from_polar(r, b));
+    radial_grid(
+        &mut img,
+        (origin.0 as f32, origin.1 as f32),
+        scale,
+        reach_m,
+        rop.max_range_m as f64,
+        (-90.0, 90.0),
+        polar,
+    );
     for i in 0..rop.len() {
         if let Some(r) = rop.reliable(i) {
             let (x, y) = to_canvas(Point2::from_polar(r as f64, rop.bin_centre_rad(i)));
@@ -163,23 +186,15 @@ pub fn sweep_diagram(sweep: &Rop) -> RgbImage {
             Rgb([225, 225, 225]),
         );
     }
-    let centre = (c.0 as i32, c.1 as i32);
-    let mut r = GRID_RANGE_M;
-    while r <= reach_m {
-        draw_hollow_circle_mut(&mut img, centre, (r * scale) as i32, GRID);
-        r += GRID_RANGE_M;
-    }
-    draw_hollow_circle_mut(&mut img, centre, (sweep.max_range_m as f64 * scale) as i32, LIMIT);
-    let mut b: f64 = 0.0;
-    while b < 360.0 {
-        draw_line_segment_mut(
-            &mut img,
-            (c.0 as f32, c.1 as f32),
-            to_canvas(reach_m, b.to_radians()),
-            GRID,
-        );
-        b += GRID_BEARING_DEG;
-    }
+    radial_grid(
+        &mut img,
+        (c.0 as f32, c.1 as f32),
+        scale,
+        reach_m,
+        sweep.max_range_m as f64,
+        (0.0, 350.0),
+        to_canvas,
+    );
     for i in 0..sweep.len() {
         let r = sweep.range_m[i] as f64;
         if !r.is_finite() || r > reach_m {
@@ -193,7 +208,7 @@ pub fn sweep_diagram(sweep: &Rop) -> RgbImage {
         let (x, y) = to_canvas(r, sweep.bin_centre_rad(i));
         draw_filled_circle_mut(&mut img, (x as i32, y as i32), 2, colour);
     }
-    draw_filled_circle_mut(&mut img, centre, 4, Rgb([40, 40, 40]));
+    draw_filled_circle_mut(&mut img, (c.0 as i32, c.1 as i32), 4, Rgb([40, 40, 40]));
     img
 }
 
