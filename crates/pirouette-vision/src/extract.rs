@@ -483,7 +483,12 @@ impl RopExtractor {
                         off += 1;
                     }
                 }
-                if off as f32 >= self.config.run_fraction * span as f32 {
+                // The column itself, not just its neighbours averaged into
+                // it, must show the obstacle: beside an obstacle's side edge
+                // a third of an obstacle pixel is enough to trip the test.
+                if off as f32 >= self.config.run_fraction * span as f32
+                    && self.column_confirms(px, u, v, &pred, &classifier)
+                {
                     return self.refine(px, u, v, pred);
                 }
                 floor.coast();
@@ -493,6 +498,28 @@ impl RopExtractor {
             }
             v -= 1;
         }
+    }
+
+    /// Whether the raw pixels of column `u` just above row `v` (two of the
+    /// three rows `v−1 ..= v−3`, or all that exist) leave the floor `pred`,
+    /// with the noise allowance of a single pixel.
+    fn column_confirms(&self, px: &[u8], u: u32, v: u32, pred: &[f32; 3], classifier: &Classifier) -> bool {
+        let single = Classifier {
+            noise: classifier.noise * SQRT_3,
+            ..*classifier
+        };
+        let rows: Vec<u32> = (1..=3).filter_map(|k| v.checked_sub(k)).collect();
+        if rows.is_empty() {
+            return true;
+        }
+        let off = rows
+            .iter()
+            .filter(|&&w| {
+                let i = (w * self.width + u) as usize * 3;
+                !single.is_floor(&[px[i] as f32, px[i + 1] as f32, px[i + 2] as f32], pred)
+            })
+            .count();
+        off * 3 >= rows.len() * 2
     }
 
     /// Sub-pixel row and colour of a boundary first detected at row `v`:
