@@ -134,14 +134,6 @@ struct EvalMapArgs {
     dir: std::path::PathBuf,
 }
 
-/// Arguments of a command this version does not provide yet.
-#[derive(clap::Args, Debug)]
-struct NotYet {
-    /// Arguments (not read).
-    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
-    rest: Vec<String>,
-}
-
 /// Runs the command line.
 pub fn run() -> Result<()> {
     let cli = Cli::parse();

@@ -196,8 +196,7 @@ struct FloorTrack {
 impl FloorTrack {
     /// A least-squares line through the seed rows (bottom first); the level
     /// is the line's value at the last (topmost) seed row.
-    fn seed(rows: impl Iterator<Item = [f32; 3]>) -> Self {
-        let rows: Vec<[f32; 3]> = rows.collect();
+    fn seed(rows: &[[f32; 3]]) -> Self {
         let k = rows.len() as f32;
         let mean_x = (k - 1.0) / 2.0;
         let var_x: f32 = (0..rows.len())
@@ -447,7 +446,11 @@ impl RopExtractor {
         }
         let pix = |v: u32| smoothed(px, m, u, v);
         let seed_rows = SEED_ROWS.min(n - top);
-        let mut floor = FloorTrack::seed((n - seed_rows..n).rev().map(pix));
+        let mut seed = [[0f32; 3]; SEED_ROWS as usize];
+        for (slot, v) in seed.iter_mut().zip((n - seed_rows..n).rev()) {
+            *slot = pix(v);
+        }
+        let mut floor = FloorTrack::seed(&seed[..seed_rows as usize]);
         if seed_rows == n - top {
             return ColumnBoundary::Clear { top_row: top };
         }
@@ -508,18 +511,17 @@ impl RopExtractor {
             noise: classifier.noise * SQRT_3,
             ..*classifier
         };
-        let rows: Vec<u32> = (1..=3).filter_map(|k| v.checked_sub(k)).collect();
-        if rows.is_empty() {
+        let rows = v.min(3) as usize;
+        if rows == 0 {
             return true;
         }
-        let off = rows
-            .iter()
-            .filter(|&&w| {
-                let i = (w * self.width + u) as usize * 3;
+        let off = (1..=rows as u32)
+            .filter(|&k| {
+                let i = ((v - k) * self.width + u) as usize * 3;
                 !single.is_floor(&[px[i] as f32, px[i + 1] as f32, px[i + 2] as f32], pred)
             })
             .count();
-        off * 3 >= rows.len() * 2
+        off * 3 >= rows * 2
     }
 
     /// Sub-pixel row and colour of a boundary first detected at row `v`:
@@ -529,23 +531,10 @@ impl RopExtractor {
     fn refine(&self, px: &[u8], u: u32, v: u32, floor_ref: [f32; 3]) -> ColumnBoundary {
         let (m, n) = (self.width, self.height);
         let pix = |w: u32| smoothed(px, m, u, w);
-        let above: Vec<u32> = (1..=2)
-            .filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1))
-            .collect();
-        let obstacle = if above.is_empty() {
-            pix(v.saturating_sub(1))
-        } else {
-            mean_of(above.iter().map(|&w| pix(w)))
-        };
-        let below: Vec<u32> = (LEVEL_OFFSET..LEVEL_OFFSET + 2)
-            .map(|k| v + k)
-            .filter(|&w| w < n)
-            .collect();
-        let floor = if below.is_empty() {
-            floor_ref
-        } else {
-            mean_of(below.iter().map(|&w| pix(w)))
-        };
+        let above = (1..=2).filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1));
+        let obstacle = mean_of(above.map(pix)).unwrap_or_else(|| pix(v.saturating_sub(1)));
+        let below = (LEVEL_OFFSET..LEVEL_OFFSET + 2).map(|k| v + k).filter(|&w| w < n);
+        let floor = mean_of(below.map(pix)).unwrap_or(floor_ref);
         let diff = [
             obstacle[0] - floor[0],
             obstacle[1] - floor[1],
@@ -577,15 +566,16 @@ impl RopExtractor {
     }
 }
 
-fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> [f32; 3] {
+/// The mean of some colours, `None` when there are none.
+fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     let (mut s, mut k) = ([0f32; 3], 0);
     for p in it {
-        for c in 0..3 {
-            s[c] += p[c];
+        for (acc, x) in s.iter_mut().zip(p) {
+            *acc += x;
         }
         k += 1;
     }
-    s.map(|x| x / k.max(1) as f32)
+    (k > 0).then(|| s.map(|x| x / k as f32))
 }
 
 /// The pixel at `(u, v)` averaged with its left and right neighbours.
