@@ -123,6 +123,18 @@ impl FloorTable {
         (lo <= hi).then_some((lo as f64, hi as f64))
     }
 
+    /// The blind distance: the range of the nearest floor point the camera
+    /// sees (metres). `None` when no pixel sees floor.
+    pub fn blind_range(&self) -> Option<f64> {
+        let r = self
+            .polar
+            .iter()
+            .map(|p| p[0])
+            .filter(|r| r.is_finite())
+            .fold(f32::INFINITY, f32::min);
+        r.is_finite().then_some(r as f64)
+    }
+
     /// The topmost row of column `u` that sees floor, if any.
     ///
     /// # Panics
@@ -199,6 +211,11 @@ mod tests {
             lo < 0.0 && hi > 0.0 && (lo + hi).abs() < 1e-6,
             "symmetric camera: {lo} {hi}"
         );
+        // The nearest floor point lies on the bottom row's centre column
+        // (the row of largest v, the column closest to the optical axis).
+        let bottom = (0..32).filter_map(|u| t.polar(u, 23)).map(|p| p.range_m as f64);
+        let nearest = bottom.fold(f64::INFINITY, f64::min);
+        assert_eq!(t.blind_range(), Some(nearest));
     }
 
     #[test]

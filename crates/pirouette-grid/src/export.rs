@@ -1,6 +1,6 @@
 //! ROS `map_server` maps: a trinary P5 PGM and its YAML.
 
-use crate::OccupancyGrid;
+use crate::{OccupancyGrid, FREE_THRESH, OCCUPIED_THRESH};
 
 /// Grey level of an occupied cell.
 pub const OCCUPIED: u8 = 0;
@@ -32,7 +32,7 @@ impl RosMap {
     /// The trinary map of `grid` with `map_server`'s default thresholds
     /// (occupied above 0.65, free below 0.196).
     pub fn from_grid(grid: &OccupancyGrid) -> Self {
-        let (occupied_thresh, free_thresh) = (0.65, 0.196);
+        let (occupied_thresh, free_thresh) = (OCCUPIED_THRESH, FREE_THRESH);
         let (min_i, min_j, width, height) = grid.extent();
         let mut pixels = vec![UNKNOWN; width * height];
         for row in 0..height {

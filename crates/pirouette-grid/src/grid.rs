@@ -4,6 +4,13 @@ use crate::traverse;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_profile::Rop;
 
+/// Probability above which a cell counts as occupied (ROS `map_server`'s
+/// customary `occupied_thresh`).
+pub const OCCUPIED_THRESH: f64 = 0.65;
+/// Probability below which a cell counts as free (`map_server`'s customary
+/// `free_thresh`).
+pub const FREE_THRESH: f64 = 0.196;
+
 /// Errors of the grid.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum GridError {
@@ -170,6 +177,21 @@ impl OccupancyGrid {
     pub fn probability_at(&self, x: f64, y: f64) -> f64 {
         let (i, j) = self.cell_of(Point2::new(x, y));
         self.probability(i, j)
+    }
+
+    /// The cells whose probability exceeds `threshold`, sorted by `(j, i)`.
+    pub fn cells_above(&self, threshold: f64) -> Vec<(i64, i64)> {
+        let l = logit(threshold) - logit(self.config.prior);
+        let mut out = Vec::new();
+        for (k, &v) in self.log_odds.iter().enumerate() {
+            if v > l {
+                out.push((
+                    self.min_cell.0 + (k % self.width) as i64,
+                    self.min_cell.1 + (k / self.width) as i64,
+                ));
+            }
+        }
+        out
     }
 
     /// Grows the storage (with a margin) so that cells `lo..=hi` exist.

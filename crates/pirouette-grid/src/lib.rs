@@ -30,6 +30,6 @@ mod export;
 mod grid;
 mod traverse;
 
-pub use export::RosMap;
-pub use grid::{GridConfig, GridError, OccupancyGrid};
+pub use export::{RosMap, FREE, OCCUPIED, UNKNOWN};
+pub use grid::{GridConfig, GridError, OccupancyGrid, FREE_THRESH, OCCUPIED_THRESH};
 pub use traverse::traverse;

@@ -251,7 +251,7 @@ pub struct Dataset {
     pub manifest: Manifest,
 }
 
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, IoError> {
+pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, IoError> {
     let text = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
     serde_json::from_slice(&text).map_err(|e| IoError::Json {
         path: path.to_owned(),
@@ -259,7 +259,7 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, IoError> 
     })
 }
 
-fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), IoError> {
+pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), IoError> {
     atomic_write_with(path, |w| {
         serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
         std::io::Write::write_all(w, b"\n")

@@ -5,6 +5,8 @@
 //! - [`Manifest`], [`CameraSpec`], [`FrameSpec`], [`Motion`]: the manifest.
 //! - [`World`], [`Obstacle`]: the scene of `truth/world.json`.
 //! - [`TruthRop`]: a true radial profile of `truth/rop/`.
+//! - [`write_map_dir`], [`read_ros_map`], [`read_poses`], [`PoseRecord`]:
+//!   the folder of a map (ROS `map_server` files, picture, poses).
 //! - [`atomic_write`]: every file is written to a temporary file, then
 //!   renamed, so a crash never leaves a half-written file.
 //!
@@ -21,6 +23,7 @@
 mod atomic;
 mod dataset;
 mod error;
+mod map_dir;
 mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
@@ -29,4 +32,5 @@ pub use dataset::{
     FORMAT_VERSION,
 };
 pub use error::IoError;
+pub use map_dir::{names as map_names, read_poses, read_ros_map, tum, write_map_dir, PoseRecord};
 pub use world::{FootprintHit, Obstacle, World};

@@ -154,6 +154,32 @@ impl Obstacle {
         self.ray_interval(origin, dir).map(|h| h.t_enter.max(0.0))
     }
 
+    /// Distance from a floor point to the outline of the footprint (inside
+    /// or outside), metres.
+    pub fn outline_distance(&self, p: [f64; 2]) -> f64 {
+        match *self {
+            Obstacle::Box {
+                center,
+                size,
+                yaw_deg,
+                ..
+            } => {
+                let (s, c) = yaw_deg.to_radians().sin_cos();
+                let (ox, oy) = (p[0] - center[0], p[1] - center[1]);
+                let dx = (c * ox + s * oy).abs() - size[0] / 2.0;
+                let dy = (-s * ox + c * oy).abs() - size[1] / 2.0;
+                if dx > 0.0 || dy > 0.0 {
+                    dx.max(0.0).hypot(dy.max(0.0))
+                } else {
+                    -dx.max(dy)
+                }
+            }
+            Obstacle::Cylinder { center, radius, .. } => {
+                ((p[0] - center[0]).hypot(p[1] - center[1]) - radius).abs()
+            }
+        }
+    }
+
     /// Every number finite, sizes positive.
     pub fn problem(&self) -> Option<String> {
         let ok = match self {
@@ -186,6 +212,15 @@ impl Obstacle {
 }
 
 impl World {
+    /// Distance from a floor point to the nearest obstacle outline, metres
+    /// (infinite in a world without obstacles).
+    pub fn outline_distance(&self, p: [f64; 2]) -> f64 {
+        self.obstacles
+            .iter()
+            .map(|o| o.outline_distance(p))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// Distance along a 2D ray to the nearest obstacle, if any.
     pub fn ray_cast(&self, origin: [f64; 2], dir: [f64; 2]) -> Option<(f64, usize)> {
         self.obstacles
@@ -225,5 +260,35 @@ mod tests {
         let h = b.ray_interval([0.0, 0.0], [2.0, 0.0]).unwrap();
         assert!((h.t_enter * 2.0 - (1.0 - 0.1 * 2f64.sqrt())).abs() < 1e-12);
         assert!((h.normal[0] + 0.5f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn outline_distance_inside_and_outside() {
+        let b = Obstacle::Box {
+            center: [1.0, 0.0],
+            size: [0.4, 0.2],
+            yaw_deg: 90.0,
+            height: 0.1,
+            rgb: [0; 3],
+        };
+        // Turned 90°: 0.2 wide along x, 0.4 along y.
+        assert!((b.outline_distance([0.5, 0.0]) - 0.4).abs() < 1e-12);
+        assert!((b.outline_distance([1.0, 0.5]) - 0.3).abs() < 1e-12);
+        assert!((b.outline_distance([1.4, 0.5]) - 0.3f64.hypot(0.3)).abs() < 1e-12);
+        assert!((b.outline_distance([1.05, 0.0]) - 0.05).abs() < 1e-12, "inside");
+        let c = Obstacle::Cylinder {
+            center: [0.0, 0.0],
+            radius: 0.5,
+            height: 0.1,
+            rgb: [0; 3],
+        };
+        assert!((c.outline_distance([0.2, 0.0]) - 0.3).abs() < 1e-12);
+        assert!((c.outline_distance([0.0, -0.8]) - 0.3).abs() < 1e-12);
+        let w = World {
+            bounds: [0.0, 0.0, 2.0, 2.0],
+            floor_rgb: [0; 3],
+            obstacles: vec![b, c],
+        };
+        assert!((w.outline_distance([0.7, 0.0]) - 0.2).abs() < 1e-12);
     }
 }

@@ -61,6 +61,11 @@ pub struct Sweep {
     pub closure: Option<LoopClosure>,
     /// The 360° radial sweep in the first frame's robot frame.
     pub rop: Rop,
+    /// Pairs of frames `(a, b)`, `a < b`, whose relative heading a verified
+    /// match measured: consecutive frames joined by a verified turn, the
+    /// loop closure, and frames after the loop matched against an earlier
+    /// one. Sorted.
+    pub links: Vec<(usize, usize)>,
 }
 
 /// Joins the profiles of one pirouette. `commanded_rad[k]` is the commanded
@@ -76,9 +81,17 @@ pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfi
     } else {
         None
     };
+    let mut links: Vec<(usize, usize)> = Vec::new();
     if let Some(c) = closure.filter(|c| c.applied) {
-        rematch_after_loop(rops, &mut turns, c.frame + 1, config);
+        links.push((0, c.frame));
+        links.extend(rematch_after_loop(rops, &mut turns, c.frame + 1, config));
     }
+    for (k, t) in turns.iter().enumerate().skip(1) {
+        if t.is_some_and(|t| !t.fallback) && !links.iter().any(|&(_, b)| b == k) {
+            links.push((k - 1, k));
+        }
+    }
+    links.sort_unstable();
     let mut heading = 0.0;
     let heading_rad: Vec<f64> = turns
         .iter()
@@ -93,6 +106,7 @@ pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfi
         heading_rad,
         closure,
         rop,
+        links,
     }
 }
 
@@ -160,8 +174,14 @@ fn close_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], config: &SweepCo
 
 /// Frames after the loop (the turn towards the next spot may be wider than
 /// the view) are matched against the frame of the sweep whose heading is
-/// nearest to where they should look.
-fn rematch_after_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], from: usize, config: &SweepConfig) {
+/// nearest to where they should look. Returns the links `(j, k)` of the re-matched frames.
+fn rematch_after_loop(
+    rops: &[Rop],
+    turns: &mut [Option<TurnEstimate>],
+    from: usize,
+    config: &SweepConfig,
+) -> Vec<(usize, usize)> {
+    let mut links = Vec::new();
     let view = rops[0].len() as f64 * rops[0].bin_width_rad;
     let max_turn = view - config.matching.min_overlap_rad;
     for k in from..rops.len() {
@@ -193,8 +213,10 @@ fn rematch_after_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], from: us
             // On the command's branch of the circle.
             let turn = t.turn_rad + wrap(heading[j] + m.turn_rad - heading[k - 1] - t.turn_rad);
             turns[k] = Some(TurnEstimate { turn_rad: turn, ..m });
+            links.push((j, k));
         }
     }
+    links
 }
 
 fn wrap(a: f64) -> f64 {
