@@ -1,0 +1,564 @@
+//! Correlative registration of a sweep against a map: an exhaustive search
+//! over translation and rotation, then a local refinement below one cell,
+//! with the covariance of the pose from the spread of the search.
+
+use crate::field::LikelihoodField;
+use crate::RegisterError;
+use nalgebra::{Matrix3, Vector3};
+use pirouette_geom::{wrap_angle, Point2, Pose2};
+use pirouette_grid::{FREE_THRESH, OCCUPIED_THRESH};
+use rayon::prelude::*;
+
+/// How far a forward move may stray from its command (one standard
+/// deviation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionNoise {
+    /// Distance error as a share of the distance commanded.
+    pub distance_frac: f64,
+    /// Heading error of a forward move, radians (the robot veers).
+    pub heading_rad: f64,
+    /// Position error of any move however short, metres.
+    pub floor_m: f64,
+}
+
+impl Default for MotionNoise {
+    /// The worst of what a cheap differential drive does, taken as one
+    /// standard deviation: distance off by 10 %, heading by 2°, and 1 cm
+    /// regardless.
+    fn default() -> Self {
+        Self {
+            distance_frac: 0.10,
+            heading_rad: 2f64.to_radians(),
+            floor_m: 0.01,
+        }
+    }
+}
+
+/// A Gaussian belief in a pose before registration, with the standard
+/// deviations expressed in the frame of its own mean.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PosePrior {
+    /// The expected pose, `world_from_robot`.
+    pub mean: Pose2,
+    /// Along the robot's heading, metres.
+    pub sigma_forward_m: f64,
+    /// Across the robot's heading, metres.
+    pub sigma_left_m: f64,
+    /// Heading, radians.
+    pub sigma_theta_rad: f64,
+}
+
+impl PosePrior {
+    /// The pose after a commanded straight move of `distance_m` from
+    /// `start` (whose heading is itself known to `start_sigma_theta_rad`).
+    /// The heading error of the start and the veer of the move both swing
+    /// the end point sideways.
+    pub fn after_forward(
+        start: &Pose2,
+        distance_m: f64,
+        start_sigma_theta_rad: f64,
+        noise: &MotionNoise,
+    ) -> Self {
+        let d = distance_m.abs();
+        let sigma_theta = start_sigma_theta_rad.hypot(noise.heading_rad);
+        Self {
+            mean: *start * Pose2::new(distance_m, 0.0, 0.0),
+            sigma_forward_m: (noise.distance_frac * d).hypot(noise.floor_m),
+            // A veer spread along the move moves the end by half its angle.
+            sigma_left_m: (d * start_sigma_theta_rad)
+                .hypot(0.5 * d * noise.heading_rad)
+                .hypot(noise.floor_m),
+            sigma_theta_rad: sigma_theta,
+        }
+    }
+
+    /// The prior's covariance in world `(x, y, θ)`.
+    pub fn covariance(&self) -> Matrix3<f64> {
+        let (s, c) = self.mean.theta.sin_cos();
+        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let d = Matrix3::from_diagonal(&Vector3::new(
+            self.sigma_forward_m.powi(2),
+            self.sigma_left_m.powi(2),
+            self.sigma_theta_rad.powi(2),
+        ));
+        r * d * r.transpose()
+    }
+
+    /// `−½ Δᵀ Σ⁻¹ Δ` of a candidate pose.
+    fn log_density(&self, x: f64, y: f64, theta: f64) -> f64 {
+        let (dx, dy) = (x - self.mean.x, y - self.mean.y);
+        let (s, c) = self.mean.theta.sin_cos();
+        let forward = c * dx + s * dy;
+        let left = -s * dx + c * dy;
+        let dt = wrap_angle(theta - self.mean.theta);
+        -0.5 * ((forward / self.sigma_forward_m).powi(2)
+            + (left / self.sigma_left_m).powi(2)
+            + (dt / self.sigma_theta_rad).powi(2))
+    }
+
+    fn check(&self) -> Result<(), RegisterError> {
+        let ok = |v: f64| v.is_finite() && v > 0.0;
+        if !(self.mean.is_finite()
+            && ok(self.sigma_forward_m)
+            && ok(self.sigma_left_m)
+            && ok(self.sigma_theta_rad))
+        {
+            return Err(RegisterError::BadPrior {
+                problem: format!("{self:?}"),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Settings of registration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RegisterConfig {
+    /// Width of the likelihood field's Gaussian, metres.
+    pub sigma_m: f64,
+    /// Likelihood floor of an endpoint on ground the map knows nothing of
+    /// (an obstacle not yet mapped).
+    pub epsilon: f64,
+    /// Likelihood floor of an endpoint on floor the map has seen free (a
+    /// false range).
+    pub epsilon_free: f64,
+    /// Map cells below this probability are known floor.
+    pub free_threshold: f64,
+    /// Map cells above this probability are obstacles.
+    pub occupied_threshold: f64,
+    /// Half-width of the search window, in prior standard deviations.
+    pub window_sigmas: f64,
+    /// The largest half-width of the translation window, metres.
+    pub max_window_m: f64,
+    /// The fewest endpoints within two σ of a mapped obstacle for the
+    /// match to be trusted.
+    pub min_matched: usize,
+    /// Endpoints closer than this are one piece of evidence (kept once per
+    /// cell of this side): neighbouring bins see the same stretch of wall
+    /// with the same range error, so counting each would overrule the
+    /// prior with correlated evidence.
+    pub spacing_m: f64,
+}
+
+impl Default for RegisterConfig {
+    /// σ 1.5 cm (a 1 cm map cell's quantisation and the profile's few
+    /// millimetres of range noise); ε 0.2 on unknown ground; ε 0.02 on seen
+    /// floor (a profile's false ranges are a few per cent of its bins);
+    /// obstacles above and floor below `map_server`'s 0.65 and 0.196;
+    /// a ±3σ window of at most ±1 m; endpoints counted once per 3 cm (2σ:
+    /// closer ones share their error); at least 10 of them (30 cm of edge)
+    /// on mapped obstacles.
+    fn default() -> Self {
+        Self {
+            sigma_m: 0.015,
+            epsilon: 0.2,
+            epsilon_free: 0.02,
+            free_threshold: FREE_THRESH,
+            occupied_threshold: OCCUPIED_THRESH,
+            window_sigmas: 3.0,
+            max_window_m: 1.0,
+            min_matched: 10,
+            spacing_m: 0.03,
+        }
+    }
+}
+
+/// The result of registering one sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Registration {
+    /// The registered pose, `world_from_robot` (the prior's mean when the
+    /// match is not trusted).
+    pub pose: Pose2,
+    /// Covariance of `pose` in world `(x, y, θ)` (the prior's when the match
+    /// is not trusted).
+    pub covariance: Matrix3<f64>,
+    /// Mean log-likelihood of an endpoint at `pose` (0 best, `ln ε` worst).
+    pub mean_log_likelihood: f64,
+    /// Endpoints used (one per map cell).
+    pub points: usize,
+    /// Endpoints within two σ of a mapped obstacle at `pose`.
+    pub matched: usize,
+    /// Whether the match was trusted.
+    pub accepted: bool,
+    /// Poses scored.
+    pub evaluated: usize,
+}
+
+/// Keeps one endpoint per cell of side `cell_m` (the first), so that a
+/// wall seen by many fine bins counts once per cell, as independent
+/// evidence should.
+pub fn thin_points(points: &[Point2], cell_m: f64) -> Vec<Point2> {
+    let mut seen = std::collections::HashSet::new();
+    points
+        .iter()
+        .copied()
+        .filter(|p| p.x.is_finite() && p.y.is_finite())
+        .filter(|p| seen.insert(((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64)))
+        .collect()
+}
+
+/// Registers the endpoints of a sweep (`points_robot`, in the sweep's own
+/// frame) against the map's likelihood field, starting from `prior`.
+///
+/// The search scores every pose of a lattice covering the prior's ±
+/// `window_sigmas` box: rotations a step apart that moves the farthest
+/// endpoint by at most one cell, translations one cell apart. The best
+/// lattice pose is then refined by a shrinking pattern search on the
+/// exact field down to 1/16 cell. The covariance is that of the
+/// lattice's posterior (score plus prior, exponentiated), so that it grows
+/// along a corridor and with few endpoints.
+pub fn register(
+    field: &LikelihoodField,
+    points_robot: &[Point2],
+    prior: &PosePrior,
+    config: &RegisterConfig,
+) -> Result<Registration, RegisterError> {
+    prior.check()?;
+    let res = field.resolution_m();
+    let points = thin_points(points_robot, config.spacing_m.max(res));
+    let fallback = |mean_ll: f64, matched: usize, evaluated: usize| Registration {
+        pose: prior.mean,
+        covariance: prior.covariance(),
+        mean_log_likelihood: mean_ll,
+        points: points.len(),
+        matched,
+        accepted: false,
+        evaluated,
+    };
+    if points.len() < config.min_matched || field.obstacle_points() == 0 {
+        return Ok(fallback(field.floor() as f64, 0, 0));
+    }
+    let far = points.iter().map(|p| p.norm()).fold(res, f64::max);
+    let theta_step = (res / far).min(1f64.to_radians());
+    let window = |sigma: f64| (config.window_sigmas * sigma).min(config.max_window_m);
+    let cov = prior.covariance();
+    let half_x = window(cov[(0, 0)].sqrt());
+    let half_y = window(cov[(1, 1)].sqrt());
+    let half_t = (config.window_sigmas * prior.sigma_theta_rad).min(std::f64::consts::PI);
+    let nx = (half_x / res).ceil() as i64;
+    let ny = (half_y / res).ceil() as i64;
+    let nt = (half_t / theta_step).ceil() as i64;
+    let (sx, sy) = ((2 * nx + 1) as usize, (2 * ny + 1) as usize);
+
+    // Scores of the lattice, one slab of sx·sy per rotation.
+    let slabs: Vec<Vec<f32>> = (-nt..=nt)
+        .into_par_iter()
+        .map(|kt| {
+            let theta = prior.mean.theta + kt as f64 * theta_step;
+            let (s, c) = theta.sin_cos();
+            let cells: Vec<(i64, i64)> = points
+                .iter()
+                .map(|p| {
+                    let x = prior.mean.x + c * p.x - s * p.y;
+                    let y = prior.mean.y + s * p.x + c * p.y;
+                    ((x / res).floor() as i64, (y / res).floor() as i64)
+                })
+                .collect();
+            lattice_slab(field, &cells, nx, ny)
+        })
+        .collect();
+
+    let mut best = (f64::NEG_INFINITY, 0i64, 0i64, 0i64);
+    let mut posterior: Vec<(f64, Vector3<f64>)> = Vec::with_capacity(slabs.len() * sx * sy);
+    for (t_idx, slab) in slabs.iter().enumerate() {
+        let kt = t_idx as i64 - nt;
+        let theta = prior.mean.theta + kt as f64 * theta_step;
+        for b in -ny..=ny {
+            for a in -nx..=nx {
+                let k = (b + ny) as usize * sx + (a + nx) as usize;
+                let (x, y) = (prior.mean.x + a as f64 * res, prior.mean.y + b as f64 * res);
+                let score = slab[k] as f64 + prior.log_density(x, y, theta);
+                if score > best.0 {
+                    best = (score, a, b, kt);
+                }
+                posterior.push((score, Vector3::new(x, y, theta)));
+            }
+        }
+    }
+    let evaluated = posterior.len();
+    let covariance = lattice_covariance(&posterior, best.0, res, theta_step);
+
+    let start = Pose2::new(
+        prior.mean.x + best.1 as f64 * res,
+        prior.mean.y + best.2 as f64 * res,
+        prior.mean.theta + best.3 as f64 * theta_step,
+    );
+    let pose = refine(field, &points, prior, start, res, theta_step);
+    let (sum, matched) = evaluate(field, &points, &pose);
+    let mean_ll = sum / points.len() as f64;
+    if matched < config.min_matched {
+        return Ok(fallback(mean_ll, matched, evaluated));
+    }
+    Ok(Registration {
+        pose,
+        covariance,
+        mean_log_likelihood: mean_ll,
+        points: points.len(),
+        matched,
+        accepted: true,
+        evaluated,
+    })
+}
+
+/// The summed field value of the endpoint cells `cells` translated by every
+/// `(a, b)` in `[-nx, nx] × [-ny, ny]` cells, row-major in `b`.
+fn lattice_slab(field: &LikelihoodField, cells: &[(i64, i64)], nx: i64, ny: i64) -> Vec<f32> {
+    let (min_cell, width, height, values) = field.raw();
+    let floor = field.floor();
+    let sx = (2 * nx + 1) as usize;
+    let mut slab = vec![0f32; sx * (2 * ny + 1) as usize];
+    for &(ci, cj) in cells {
+        let (x0, y0) = (ci - min_cell.0, cj - min_cell.1);
+        for b in -ny..=ny {
+            let y = y0 + b;
+            let row = &mut slab[(b + ny) as usize * sx..][..sx];
+            if y < 0 || y >= height as i64 {
+                row.iter_mut().for_each(|v| *v += floor);
+                continue;
+            }
+            let field_row = &values[y as usize * width..][..width];
+            // The translations that land this endpoint inside the field's row.
+            let a_lo = (-x0).max(-nx);
+            let a_hi = (width as i64 - 1 - x0).min(nx);
+            for a in -nx..=nx {
+                let v = if a >= a_lo && a <= a_hi {
+                    field_row[(x0 + a) as usize]
+                } else {
+                    floor
+                };
+                row[(a + nx) as usize] += v;
+            }
+        }
+    }
+    slab
+}
+
+/// The covariance of the lattice's posterior `exp(score − best)`, with the
+/// lattice's own quantisation (a uniform cell) added so that a sharp peak
+/// still has a honest, non-zero spread.
+fn lattice_covariance(
+    posterior: &[(f64, Vector3<f64>)],
+    best: f64,
+    res: f64,
+    theta_step: f64,
+) -> Matrix3<f64> {
+    let mut w_sum = 0.0;
+    let mut mean = Vector3::zeros();
+    let mut second = Matrix3::zeros();
+    for (score, x) in posterior {
+        let w = (score - best).exp();
+        if w < 1e-9 {
+            continue;
+        }
+        w_sum += w;
+        mean += w * x;
+        second += w * x * x.transpose();
+    }
+    mean /= w_sum;
+    let cov = second / w_sum - mean * mean.transpose();
+    let quant = Matrix3::from_diagonal(&Vector3::new(
+        res * res / 12.0,
+        res * res / 12.0,
+        theta_step * theta_step / 12.0,
+    ));
+    // Symmetrised against rounding.
+    0.5 * (cov + cov.transpose()) + quant
+}
+
+/// Sum of the exact field over the endpoints at `pose`, and how many lie
+/// within two σ of a mapped obstacle.
+fn evaluate(field: &LikelihoodField, points: &[Point2], pose: &Pose2) -> (f64, usize) {
+    let floor = field.floor() as f64;
+    // ln(ε + (1−ε)·e⁻²) expressed through the floor: ε = e^floor.
+    let eps = floor.exp();
+    let near = (eps + (1.0 - eps) * (-2.0f64).exp()).ln();
+    let mut sum = 0.0;
+    let mut matched = 0;
+    for p in points {
+        let v = field.exact(pose.transform_point(*p));
+        sum += v;
+        matched += usize::from(v >= near);
+    }
+    (sum, matched)
+}
+
+/// Pattern search on the exact score plus prior, from `start`,
+/// with steps halving from half a lattice step to 1/16 of it.
+fn refine(
+    field: &LikelihoodField,
+    points: &[Point2],
+    prior: &PosePrior,
+    start: Pose2,
+    res: f64,
+    theta_step: f64,
+) -> Pose2 {
+    let score = |p: &Pose2| evaluate(field, points, p).0 + prior.log_density(p.x, p.y, p.theta);
+    let mut pose = start;
+    let mut best = score(&pose);
+    let (mut step_xy, mut step_t) = (0.5 * res, 0.5 * theta_step);
+    while step_xy >= res / 16.0 {
+        let mut moved = false;
+        for dt in [-1.0, 0.0, 1.0] {
+            for dy in [-1.0, 0.0, 1.0] {
+                for dx in [-1.0, 0.0, 1.0] {
+                    if dx == 0.0 && dy == 0.0 && dt == 0.0 {
+                        continue;
+                    }
+                    let cand = Pose2::new(
+                        pose.x + dx * step_xy,
+                        pose.y + dy * step_xy,
+                        pose.theta + dt * step_t,
+                    );
+                    let s = score(&cand);
+                    if s > best {
+                        best = s;
+                        pose = cand;
+                        moved = true;
+                    }
+                }
+            }
+        }
+        if !moved {
+            step_xy *= 0.5;
+            step_t *= 0.5;
+        }
+    }
+    pose
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The walls of a 1.5 × 1.3 m box and a post, sampled every 2 mm.
+    fn room() -> Vec<Point2> {
+        let mut pts = Vec::new();
+        let n = 750;
+        for k in 0..=n {
+            let t = k as f64 / n as f64;
+            pts.push(Point2::new(1.5 * t, 0.0));
+            pts.push(Point2::new(1.5 * t, 1.3));
+            pts.push(Point2::new(0.0, 1.3 * t));
+            pts.push(Point2::new(1.5, 1.3 * t));
+        }
+        for k in 0..200 {
+            let a = k as f64 / 200.0 * std::f64::consts::TAU;
+            pts.push(Point2::new(0.5 + 0.05 * a.cos(), 0.6 + 0.05 * a.sin()));
+        }
+        pts
+    }
+
+    fn field_of(world: &[Point2]) -> LikelihoodField {
+        LikelihoodField::from_points(world, 0.01, 0.015, 0.2)
+    }
+
+    /// What a robot at `pose` sees of `world` within `max_range`, in its
+    /// own frame (no occlusion: enough for a registration test).
+    fn seen_from(world: &[Point2], pose: &Pose2, max_range: f64, noise_m: f64, seed: u64) -> Vec<Point2> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let inv = pose.inverse();
+        world
+            .iter()
+            .map(|p| inv.transform_point(*p))
+            .filter(|p| p.norm() <= max_range)
+            .map(|p| {
+                Point2::new(
+                    p.x + rng.random_range(-noise_m..noise_m),
+                    p.y + rng.random_range(-noise_m..noise_m),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn recovers_a_pose_far_off_its_prior() {
+        let world = room();
+        let field = field_of(&world);
+        let truth = Pose2::new(1.005, 0.44, 0.06);
+        let seen = seen_from(&world, &truth, 0.9, 0.003, 1);
+        // The command said 0.5 m; the robot went 0.46 m and veered.
+        let start = Pose2::new(0.55, 0.40, 0.03);
+        let prior = PosePrior::after_forward(&start, 0.5, 1f64.to_radians(), &MotionNoise::default());
+        let err0 = prior.mean.between(&truth);
+        assert!(err0.translation().norm() > 0.03 && err0.theta.abs() > 1f64.to_radians());
+        let reg = register(&field, &seen, &prior, &RegisterConfig::default()).unwrap();
+        assert!(reg.accepted);
+        let err = reg.pose.between(&truth);
+        assert!(err.translation().norm() < 0.004, "{err:?}");
+        assert!(err.theta.abs() < 0.2f64.to_radians(), "{err:?}");
+        // The covariance is a covariance, and it is not wider than the prior.
+        let c = reg.covariance;
+        assert!((c - c.transpose()).norm() < 1e-12);
+        assert!(c.symmetric_eigenvalues().iter().all(|&e| e > 0.0));
+        assert!(c[(0, 0)] < prior.covariance()[(0, 0)] && c[(2, 2)] < prior.covariance()[(2, 2)]);
+    }
+
+    #[test]
+    fn a_corridor_is_uncertain_along_its_walls() {
+        // Two long parallel walls along x, nothing across.
+        let mut world = Vec::new();
+        for k in 0..=1500 {
+            let x = k as f64 * 0.002;
+            world.push(Point2::new(x, 0.0));
+            world.push(Point2::new(x, 0.6));
+        }
+        let field = field_of(&world);
+        let truth = Pose2::new(1.5, 0.3, 0.0);
+        let seen = seen_from(&world, &truth, 0.9, 0.002, 2);
+        let start = Pose2::new(1.0, 0.3, 0.0);
+        let prior = PosePrior::after_forward(&start, 0.5, 0.5f64.to_radians(), &MotionNoise::default());
+        let reg = register(&field, &seen, &prior, &RegisterConfig::default()).unwrap();
+        assert!(reg.accepted);
+        assert!(
+            (reg.pose.y - truth.y).abs() < 0.004,
+            "across the corridor: pinned"
+        );
+        let c = reg.covariance;
+        assert!(
+            c[(0, 0)] > 20.0 * c[(1, 1)],
+            "along the corridor: the walls say nothing ({c})"
+        );
+    }
+
+    #[test]
+    fn too_little_to_match_keeps_the_prior_and_says_so() {
+        let world = room();
+        let field = field_of(&world);
+        let prior = PosePrior::after_forward(&Pose2::new(0.5, 0.5, 0.0), 0.3, 0.01, &MotionNoise::default());
+        let few = vec![Point2::new(0.3, 0.0); 3];
+        let reg = register(&field, &few, &prior, &RegisterConfig::default()).unwrap();
+        assert!(!reg.accepted);
+        assert_eq!(reg.pose, prior.mean);
+        assert_eq!(reg.covariance, prior.covariance());
+        let bad = PosePrior {
+            sigma_forward_m: 0.0,
+            ..prior
+        };
+        assert!(register(&field, &few, &bad, &RegisterConfig::default()).is_err());
+    }
+
+    #[test]
+    fn prior_after_forward_moves_along_the_heading() {
+        let start = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+        let p = PosePrior::after_forward(&start, 0.5, 0.0, &MotionNoise::default());
+        assert!((p.mean.x - 1.0).abs() < 1e-12 && (p.mean.y - 2.5).abs() < 1e-12);
+        // Along the heading (world y here) the distance error dominates.
+        let c = p.covariance();
+        assert!((c[(1, 1)] - p.sigma_forward_m.powi(2)).abs() < 1e-12);
+        assert!((c[(0, 0)] - p.sigma_left_m.powi(2)).abs() < 1e-12);
+        assert!((p.sigma_forward_m - (0.05f64).hypot(0.01)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn thinning_keeps_one_point_per_cell() {
+        let pts = [
+            Point2::new(0.001, 0.001),
+            Point2::new(0.009, 0.002),
+            Point2::new(0.011, 0.0),
+            Point2::new(f64::NAN, 0.0),
+        ];
+        assert_eq!(thin_points(&pts, 0.01), vec![pts[0], pts[2]]);
+    }
+}

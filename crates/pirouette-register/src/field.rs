@@ -1,0 +1,323 @@
+//! The likelihood field of a map: how well a point explains an obstacle.
+
+use kiddo::{KdTree, SquaredEuclidean};
+use pirouette_geom::Point2;
+use pirouette_grid::OccupancyGrid;
+
+/// Per-cell log-likelihood of a profile endpoint falling there: a Gaussian
+/// in the distance to the nearest mapped obstacle point, mixed with a
+/// floor for endpoints the map cannot explain: `ε` where the map knows
+/// nothing (obstacles not yet mapped), a smaller `ε_free` where the map has
+/// seen free floor (only a false range lands there).
+///
+/// `value = ln(ε_c + (1 − ε)·exp(−d² / 2σ²))`, `ε_c` being `ε` or
+/// `ε_free`, so an endpoint on a mapped obstacle scores about `0`, one on
+/// unknown ground `ln ε`, one on known floor `ln ε_free`: a pose that slides
+/// a wall along a wall but throws other endpoints onto seen floor loses.
+///
+/// Two forms of one function: a lattice of cell-centre values for the
+/// exhaustive search ([`LikelihoodField::cell`]), and the exact value from
+/// the nearest obstacle point ([`LikelihoodField::exact`], a k-d tree
+/// query) for refinement below one cell, where interpolating the lattice
+/// would flatten the peak of a wall lying between two cell centres.
+///
+/// # Memory
+/// Five bytes per cell of the map's extent (plus a border of `3σ`), and
+/// the k-d tree of the points (about 24 bytes each).
+#[derive(Debug, Clone)]
+pub struct LikelihoodField {
+    tree: KdTree<f64, 2>,
+    epsilon: f64,
+    epsilon_free: f64,
+    two_sigma2: f64,
+    resolution_m: f64,
+    /// Cell index of storage element 0.
+    min_cell: (i64, i64),
+    width: usize,
+    height: usize,
+    values: Vec<f32>,
+    /// Cells the map has seen free.
+    free: Vec<bool>,
+    floor: f32,
+    occupied: usize,
+}
+
+impl LikelihoodField {
+    /// The field of the cells of `grid` that are occupied with probability
+    /// above `occupied_threshold` (each taken at its centre), with Gaussian
+    /// width `sigma_m` and floor `epsilon` (in `(0, 1)`); no free space.
+    pub fn from_grid(grid: &OccupancyGrid, occupied_threshold: f64, sigma_m: f64, epsilon: f64) -> Self {
+        let s = grid.resolution_m();
+        let centres: Vec<Point2> = grid
+            .cells_above(occupied_threshold)
+            .into_iter()
+            .map(|(i, j)| Point2::new((i as f64 + 0.5) * s, (j as f64 + 0.5) * s))
+            .collect();
+        Self::from_points(&centres, s, sigma_m, epsilon)
+    }
+
+    /// The field of a set of obstacle points on a lattice of `resolution_m`
+    /// cells, with no knowledge of free space. Distances are measured from
+    /// each cell centre to the points themselves, so the field keeps the
+    /// points' sub-cell positions (a wall on a cell border does not move by
+    /// half a cell).
+    pub fn from_points(points: &[Point2], resolution_m: f64, sigma_m: f64, epsilon: f64) -> Self {
+        Self::build(points, None, resolution_m, sigma_m, epsilon, epsilon)
+    }
+
+    /// The field of obstacle points on the lattice of `grid`, whose cells
+    /// below `free_threshold` are known floor (floor `epsilon_free`).
+    pub fn from_map(
+        points: &[Point2],
+        grid: &OccupancyGrid,
+        free_threshold: f64,
+        sigma_m: f64,
+        epsilon: f64,
+        epsilon_free: f64,
+    ) -> Self {
+        Self::build(
+            points,
+            Some((grid, free_threshold)),
+            grid.resolution_m(),
+            sigma_m,
+            epsilon,
+            epsilon_free,
+        )
+    }
+
+    fn build(
+        points: &[Point2],
+        free_space: Option<(&OccupancyGrid, f64)>,
+        resolution_m: f64,
+        sigma_m: f64,
+        epsilon: f64,
+        epsilon_free: f64,
+    ) -> Self {
+        let floor = epsilon.ln() as f32;
+        let points: Vec<Point2> = points
+            .iter()
+            .copied()
+            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .collect();
+        // Beyond 3σ the Gaussian adds less than 1.2 % to the floor.
+        let reach = (3.0 * sigma_m / resolution_m).ceil() as i64 + 1;
+        let cell = |p: &Point2| {
+            (
+                (p.x / resolution_m).floor() as i64,
+                (p.y / resolution_m).floor() as i64,
+            )
+        };
+        let mut tree: KdTree<f64, 2> = KdTree::with_capacity(points.len().max(1));
+        for (k, p) in points.iter().enumerate() {
+            tree.add(&[p.x, p.y], k as u64);
+        }
+        let two_sigma2 = 2.0 * sigma_m * sigma_m;
+        // The lattice covers the points (with the Gaussian's reach) and the
+        // grid's stored cells.
+        let mut extent: Option<((i64, i64), (i64, i64))> = None;
+        let mut grow = |lo: (i64, i64), hi: (i64, i64)| {
+            extent = Some(match extent {
+                None => (lo, hi),
+                Some((a, b)) => ((a.0.min(lo.0), a.1.min(lo.1)), (b.0.max(hi.0), b.1.max(hi.1))),
+            });
+        };
+        for p in &points {
+            let (i, j) = cell(p);
+            grow((i - reach, j - reach), (i + reach, j + reach));
+        }
+        if let Some((grid, _)) = free_space {
+            let (i, j, w, h) = grid.extent();
+            if w > 0 && h > 0 {
+                grow((i, j), (i + w as i64 - 1, j + h as i64 - 1));
+            }
+        }
+        let Some((min_cell, max_cell)) = extent else {
+            return Self {
+                tree,
+                epsilon,
+                epsilon_free,
+                two_sigma2,
+                resolution_m,
+                min_cell: (0, 0),
+                width: 0,
+                height: 0,
+                values: Vec::new(),
+                free: Vec::new(),
+                floor,
+                occupied: 0,
+            };
+        };
+        let width = (max_cell.0 - min_cell.0 + 1) as usize;
+        let height = (max_cell.1 - min_cell.1 + 1) as usize;
+        // Squared distance from each cell centre to the nearest point, exact
+        // within `reach` cells: every point stamps its neighbourhood.
+        let mut d2 = vec![f64::INFINITY; width * height];
+        for p in &points {
+            let (i, j) = cell(p);
+            let (ci, cj) = (i - min_cell.0, j - min_cell.1);
+            for dj in -reach..=reach {
+                let ddy = ((j + dj) as f64 + 0.5) * resolution_m - p.y;
+                let row = (cj + dj) as usize * width;
+                for di in -reach..=reach {
+                    let ddx = ((i + di) as f64 + 0.5) * resolution_m - p.x;
+                    let k = row + (ci + di) as usize;
+                    d2[k] = d2[k].min(ddx * ddx + ddy * ddy);
+                }
+            }
+        }
+        let mut free = vec![false; width * height];
+        if let Some((grid, threshold)) = free_space {
+            for (k, f) in free.iter_mut().enumerate() {
+                let (i, j) = (min_cell.0 + (k % width) as i64, min_cell.1 + (k / width) as i64);
+                *f = grid.probability(i, j) < threshold;
+            }
+        }
+        let values = d2
+            .into_iter()
+            .zip(&free)
+            .map(|(d, &f)| {
+                let base = if f { epsilon_free } else { epsilon };
+                (base + (1.0 - epsilon) * (-d / two_sigma2).exp()).ln() as f32
+            })
+            .collect();
+        Self {
+            tree,
+            epsilon,
+            epsilon_free,
+            two_sigma2,
+            resolution_m,
+            min_cell,
+            width,
+            height,
+            values,
+            free,
+            floor,
+            occupied: points.len(),
+        }
+    }
+
+    /// Cell side, metres.
+    pub fn resolution_m(&self) -> f64 {
+        self.resolution_m
+    }
+
+    /// How many obstacle points the field was made of.
+    pub fn obstacle_points(&self) -> usize {
+        self.occupied
+    }
+
+    /// The log-likelihood of an endpoint far from every mapped obstacle.
+    pub fn floor(&self) -> f32 {
+        self.floor
+    }
+
+    /// The value of cell `(i, j)` (the floor outside the stored extent).
+    pub fn cell(&self, i: i64, j: i64) -> f32 {
+        let (x, y) = (i - self.min_cell.0, j - self.min_cell.1);
+        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
+            self.values[y as usize * self.width + x as usize]
+        } else {
+            self.floor
+        }
+    }
+
+    /// The exact value at a map point, from its nearest obstacle point.
+    pub fn exact(&self, p: Point2) -> f64 {
+        let (i, j) = (
+            (p.x / self.resolution_m).floor() as i64 - self.min_cell.0,
+            (p.y / self.resolution_m).floor() as i64 - self.min_cell.1,
+        );
+        let inside = i >= 0 && j >= 0 && (i as usize) < self.width && (j as usize) < self.height;
+        let base = if inside && self.free[j as usize * self.width + i as usize] {
+            self.epsilon_free
+        } else {
+            self.epsilon
+        };
+        if self.occupied == 0 {
+            return base.ln();
+        }
+        let d2 = self.tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
+        (base + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
+    }
+
+    /// The stored block: `(min_cell, width, height, values)`, row-major.
+    pub(crate) fn raw(&self) -> ((i64, i64), usize, usize, &[f32]) {
+        (self.min_cell, self.width, self.height, &self.values)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peaks_on_occupied_cells_and_falls_with_distance() {
+        let eps = 0.1;
+        let f = LikelihoodField::from_points(&[Point2::new(0.105, 0.105)], 0.01, 0.015, eps);
+        assert!(f.cell(10, 10).abs() < 1e-6, "on the obstacle: ln 1");
+        // One cell away: ln(ε + (1-ε)·exp(-1 / (2·1.5²))).
+        let one = (eps + (1.0 - eps) * (-1.0f64 / 4.5).exp()).ln() as f32;
+        assert!((f.cell(11, 10) - one).abs() < 1e-6);
+        assert!((f.cell(10, 9) - one).abs() < 1e-6);
+        assert!(f.cell(12, 12) < f.cell(11, 11) && f.cell(11, 11) < f.cell(11, 10));
+        assert_eq!(f.cell(30, 10), (eps as f32).ln(), "far: the floor");
+        assert_eq!(f.cell(-1000, 5), f.floor());
+        // The exact value agrees with the lattice at cell centres.
+        assert!((f.exact(Point2::new(0.115, 0.105)) as f32 - f.cell(11, 10)).abs() < 1e-6);
+        let half = (eps + (1.0 - eps) * (-0.25f64 / 4.5).exp()).ln();
+        assert!((f.exact(Point2::new(0.11, 0.105)) - half).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_nearest_obstacle_counts() {
+        let f = LikelihoodField::from_points(
+            &[Point2::new(0.005, 0.005), Point2::new(0.045, 0.005)],
+            0.01,
+            0.02,
+            0.1,
+        );
+        assert_eq!(f.cell(1, 0), f.cell(3, 0));
+        assert_eq!(f.cell(1, 0), f.cell(-1, 0));
+        assert_eq!(f.obstacle_points(), 2);
+    }
+
+    #[test]
+    fn keeps_sub_cell_positions() {
+        // A wall on the border y = 0 between cell rows -1 and 0: the field
+        // is symmetric about the border, not about row 0's centre.
+        let wall: Vec<Point2> = (0..50).map(|k| Point2::new(k as f64 * 0.002, 0.0)).collect();
+        let f = LikelihoodField::from_points(&wall, 0.01, 0.015, 0.2);
+        assert!((f.cell(3, 0) - f.cell(3, -1)).abs() < 1e-6);
+        assert!((f.exact(Point2::new(0.05, 0.004)) - f.exact(Point2::new(0.05, -0.004))).abs() < 1e-9);
+        assert!(f.exact(Point2::new(0.05, 0.0)) > f.exact(Point2::new(0.05, 0.004)));
+    }
+
+    #[test]
+    fn seen_floor_scores_below_unknown_ground() {
+        use pirouette_geom::Pose2;
+        use pirouette_grid::{GridConfig, OccupancyGrid, FREE_THRESH};
+        use pirouette_profile::Rop;
+        // Five looks along +x at a wall 0.5 m ahead: floor before it free.
+        let mut rop = Rop::covering(-0.3, 0.3, 0.25f64.to_radians(), 0.9).unwrap();
+        rop.range_m.iter_mut().for_each(|r| *r = 0.5);
+        let mut grid = OccupancyGrid::new(GridConfig::default()).unwrap();
+        for _ in 0..5 {
+            grid.insert_profile(&Pose2::IDENTITY, &rop, 0.1);
+        }
+        let wall: Vec<Point2> = (-10..=10).map(|k| Point2::new(0.5, k as f64 * 0.01)).collect();
+        let f = LikelihoodField::from_map(&wall, &grid, FREE_THRESH, 0.015, 0.2, 0.02);
+        let on_floor = f.exact(Point2::new(0.3, 0.0));
+        let unknown = f.exact(Point2::new(0.3, 0.6));
+        assert!((on_floor - 0.02f64.ln()).abs() < 1e-9, "{on_floor}");
+        assert!((unknown - 0.2f64.ln()).abs() < 1e-9, "{unknown}");
+        assert!(f.exact(Point2::new(0.5, 0.0)) > -0.01);
+        // The lattice agrees at cell centres.
+        assert!((f.cell(30, 0) as f64 - f.exact(Point2::new(0.305, 0.005))).abs() < 1e-6);
+    }
+
+    #[test]
+    fn an_empty_map_is_all_floor() {
+        let f = LikelihoodField::from_points(&[], 0.01, 0.02, 0.1);
+        assert!((f.exact(Point2::new(0.3, 0.2)) - f.floor() as f64).abs() < 1e-6);
+    }
+}
