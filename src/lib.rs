@@ -7,10 +7,12 @@
 //! - [`camera`]: the paper's IPM and the pinhole model, pixel ↔ floor tables;
 //! - [`profile`]: the Radial Obstacle Profile, rotation matching, sweeps;
 //! - [`grid`]: the occupancy grid and map export;
+//! - [`register`]: registration of sweeps against the map;
 //! - [`io`]: the `rop-dataset/1` format and other files;
 //! - [`vision`]: floor segmentation and ROPs from images;
 //! - [`sim`]: the renderer of scenes into datasets;
-//! - [`pipeline`]: whole-dataset runs; [`eval`]: scores against truth.
+//! - [`pipeline`]: whole-dataset runs; [`mapping`]: maps of datasets;
+//!   [`eval`]: scores against truth.
 //!
 //! ```no_run
 //! use pirouette::io::Dataset;
@@ -25,10 +27,12 @@ pub use pirouette_geom as geom;
 pub use pirouette_grid as grid;
 pub use pirouette_io as io;
 pub use pirouette_profile as profile;
+pub use pirouette_register as register;
 pub use pirouette_sim as sim;
 pub use pirouette_vision as vision;
 
 pub mod camera_report;
 pub mod eval;
+pub mod mapping;
 pub mod pipeline;
 pub mod plot;

@@ -1,10 +1,11 @@
 //! Pictures for people: ROP diagrams, top-down floor views, boundary
-//! overlays (PNG).
+//! overlays, sweep diagrams and maps (PNG).
 
 use image::{Rgb, RgbImage};
 use imageproc::drawing::{draw_filled_circle_mut, draw_hollow_circle_mut, draw_line_segment_mut};
 use pirouette_camera::CameraModel;
-use pirouette_geom::Point2;
+use pirouette_geom::{Point2, Pose2};
+use pirouette_grid::{self as grid, RosMap};
 use pirouette_profile::Rop;
 use pirouette_vision::ColumnBoundary;
 
@@ -212,6 +213,58 @@ pub fn sweep_diagram(sweep: &Rop) -> RgbImage {
     img
 }
 
+/// The map for people: free floor white, obstacles black, unknown grey,
+/// each cell a `scale`-pixel square (chosen so that the picture is at least
+/// 600 pixels across, at most 8 per cell); the trajectory in blue, each
+/// sweep's spot as a red disc with a tick along its first frame's heading,
+/// the map frame's origin as a green disc.
+pub fn map_picture(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2]) -> RgbImage {
+    let longest = map.width.max(map.height).max(1);
+    let scale = (600usize.div_ceil(longest)).clamp(1, 8) as u32;
+    let (w, h) = (map.width as u32 * scale, map.height as u32 * scale);
+    let mut img = RgbImage::new(w.max(1), h.max(1));
+    for (k, &grey) in map.pixels.iter().enumerate() {
+        let (col, row) = ((k % map.width) as u32, (k / map.width) as u32);
+        let colour = match grey {
+            grid::FREE => Rgb([255, 255, 255]),
+            grid::OCCUPIED => Rgb([0, 0, 0]),
+            _ => Rgb([190, 190, 190]),
+        };
+        for dy in 0..scale {
+            for dx in 0..scale {
+                img.put_pixel(col * scale + dx, row * scale + dy, colour);
+            }
+        }
+    }
+    let to_canvas = |p: Point2| {
+        let col = (p.x - map.origin_m[0]) / map.resolution_m;
+        let row = map.height as f64 - (p.y - map.origin_m[1]) / map.resolution_m;
+        ((col * scale as f64) as f32, (row * scale as f64) as f32)
+    };
+    let path = Rgb([30, 90, 220]);
+    for pair in frames.windows(2) {
+        draw_line_segment_mut(
+            &mut img,
+            to_canvas(pair[0].translation()),
+            to_canvas(pair[1].translation()),
+            path,
+        );
+    }
+    let radius = (3 * scale as i32).clamp(4, 12);
+    for pose in sweeps {
+        let (x, y) = to_canvas(pose.translation());
+        draw_filled_circle_mut(&mut img, (x as i32, y as i32), radius, MEASURED);
+        let tip = to_canvas(pose.transform_point(Point2::new(
+            2.5 * radius as f64 * map.resolution_m / scale as f64,
+            0.0,
+        )));
+        draw_line_segment_mut(&mut img, (x, y), tip, MEASURED);
+    }
+    let (x, y) = to_canvas(Point2::new(0.0, 0.0));
+    draw_filled_circle_mut(&mut img, (x as i32, y as i32), radius / 2, TRUTH);
+    img
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,5 +278,38 @@ mod tests {
         let img = rop_diagram(&rop, Some(&rop.clone()));
         let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
         assert!(count(MEASURED) > 100 && count(LIMIT) > 100 && count(GRID) > 1000);
+    }
+
+    #[test]
+    fn map_picture_puts_cells_and_sweeps_where_the_map_says() {
+        // 100 × 50 cells of 1 cm from (-0.2, -0.1); one occupied cell at
+        // map point (0.305, 0.205).
+        let (width, height) = (100, 50);
+        let mut pixels = vec![grid::FREE; width * height];
+        let (col, row) = (50, height - 1 - 30);
+        pixels[row * width + col] = grid::OCCUPIED;
+        let map = RosMap {
+            width,
+            height,
+            pixels,
+            resolution_m: 0.01,
+            origin_m: [-0.2, -0.1],
+            occupied_thresh: 0.65,
+            free_thresh: 0.196,
+        };
+        let sweep = Pose2::new(0.5, 0.2, 0.0);
+        let img = map_picture(&map, &[Pose2::IDENTITY, sweep], &[sweep]);
+        let scale = 6; // 600 / 100 cells
+        assert_eq!(img.dimensions(), (600, 300));
+        assert_eq!(
+            *img.get_pixel(50 * scale + 2, row as u32 * scale + 2),
+            Rgb([0, 0, 0])
+        );
+        // The sweep's disc at column (0.5 + 0.2) / 0.01 = 70, row 50 - 30 = 20.
+        assert_eq!(*img.get_pixel(70 * scale, 20 * scale), MEASURED);
+        assert!(
+            img.pixels().any(|p| *p == Rgb([30, 90, 220])),
+            "the trajectory is drawn"
+        );
     }
 }

@@ -11,6 +11,8 @@ fn every_command_has_help() {
         vec!["example", "--help"],
         vec!["profile", "--help"],
         vec!["eval", "--help"],
+        vec!["map", "--help"],
+        vec!["eval", "map", "--help"],
     ] {
         let out = pirouette(&args);
         assert!(out.status.success(), "{args:?}");
@@ -79,7 +81,7 @@ fn camera_report_shows_models_agree_near_and_diverge_far() {
 
 #[test]
 fn commands_not_yet_available_fail_clearly() {
-    let out = pirouette(&["map", "x", "--out", "y"]);
+    let out = pirouette(&["places", "build", "x", "--out", "y"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not available"));
 }

@@ -13,6 +13,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 mod camera;
+mod map;
 mod plots;
 mod profile;
 mod render;
@@ -40,7 +41,7 @@ enum Command {
     /// Verified turns and 360° radial sweeps of a dataset.
     Sweep(sweep::SweepArgs),
     /// Build the occupancy grid map of a dataset or laser log.
-    Map(MapArgs),
+    Map(map::MapArgs),
     /// Place index: build it from datasets.
     #[command(subcommand)]
     Places(PlacesCommand),
@@ -74,18 +75,13 @@ enum EvalCommand {
     /// Verified turns against true headings: per-turn error of the estimate
     /// and of the command, heading error over each sweep, fallbacks.
     Sweep(sweep::EvalSweepArgs),
-    /// Trajectory and map against truth.
-    Map(EvalMapArgs),
-}
-
-/// Arguments of `pirouette map`.
-#[derive(clap::Args, Debug)]
-struct MapArgs {
-    /// Camera dataset folder or laser log file.
-    dataset: std::path::PathBuf,
-    /// Folder for map.pgm, map.yaml, map.png, poses.json and poses.tum.
-    #[arg(long)]
-    out: std::path::PathBuf,
+    /// Trajectory and map against truth: ATE after a best-fit rigid
+    /// alignment and anchored at the first frame (beside the commanded
+    /// motion's), per-sweep errors, and precision, recall and F1 of the
+    /// occupied cells within 2 cells of the true obstacle outlines (recall
+    /// over the outline visible from the true poses), beside those of a
+    /// map built from the true poses.
+    Map(map::EvalMapArgs),
 }
 
 /// Arguments of `pirouette places build`.
@@ -125,15 +121,6 @@ struct GraphOptimiseArgs {
     json: bool,
 }
 
-/// Arguments of `pirouette eval map`.
-#[derive(clap::Args, Debug)]
-struct EvalMapArgs {
-    /// The dataset folder with truth.
-    dataset: std::path::PathBuf,
-    /// The folder `pirouette map` wrote.
-    dir: std::path::PathBuf,
-}
-
 /// Runs the command line.
 pub fn run() -> Result<()> {
     let cli = Cli::parse();
@@ -143,13 +130,13 @@ pub fn run() -> Result<()> {
         Command::Camera(a) => camera::camera(a),
         Command::Profile(a) => profile::profile(a),
         Command::Sweep(a) => sweep::sweep(a),
-        Command::Map(_) => not_yet("map"),
+        Command::Map(a) => map::map(a),
         Command::Places(PlacesCommand::Build(_)) => not_yet("places build"),
         Command::Localise(_) => not_yet("localise"),
         Command::Graph(GraphCommand::Optimise(_)) => not_yet("graph optimise"),
         Command::Eval(EvalCommand::Profile(a)) => profile::eval_profile(a),
         Command::Eval(EvalCommand::Sweep(a)) => sweep::eval_sweep(a),
-        Command::Eval(EvalCommand::Map(_)) => not_yet("eval map"),
+        Command::Eval(EvalCommand::Map(a)) => map::eval_map(a),
     }
 }
 

@@ -4,7 +4,6 @@ use anyhow::{Context, Result};
 use pirouette::eval::{tally_sweeps, ProfileTally};
 use pirouette::io::{Dataset, Motion};
 use pirouette::pipeline;
-use pirouette::profile::sweep::SweepConfig;
 use pirouette::sim::{render_dataset, Scene, BUILTIN_SCENES};
 use pirouette::vision::VisionConfig;
 use std::path::{Path, PathBuf};
@@ -112,8 +111,8 @@ pub const EXAMPLE_SCENE: &str = "field-multi";
 /// Its seed.
 pub const EXAMPLE_SEED: u64 = 2004;
 
-/// `pirouette example`: render, profile every frame, score against truth,
-/// draw pictures.
+/// `pirouette example`: render, profile every frame, verify the turns,
+/// build the map, score everything against truth, draw pictures.
 pub fn example(a: ExampleArgs) -> Result<()> {
     let scene = Scene::builtin(EXAMPLE_SCENE).expect("the example scene is built in");
     let dataset_dir = a.out.join("dataset");
@@ -142,17 +141,10 @@ pub fn example(a: ExampleArgs) -> Result<()> {
     let camera = ds.camera(None)?;
     super::plots::profile_plots(&ds, &extractor, &camera, &rops, &plots)?;
 
-    // Verified turns and sweeps, on fine profiles.
-    let fine = VisionConfig {
-        bin_width_rad: 0.25f64.to_radians(),
-        ..VisionConfig::default()
-    };
-    let extractor = pipeline::extractor(&ds, None, fine)?;
-    let bar = super::progress(ds.manifest.frames.len(), "sweep");
-    let fine_rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
-    bar.finish_and_clear();
-    let sweeps = pipeline::sweeps(&ds, &fine_rops, &SweepConfig::default());
-    if let Some(tally) = tally_sweeps(&ds, &sweeps) {
+    // Verified turns, sweeps and the map, on fine profiles.
+    let options = super::map::MapOptions::default();
+    let mapped = super::map::map_dataset(&ds, &options)?;
+    if let Some(tally) = tally_sweeps(&ds, &mapped.run.sweeps) {
         let t = tally.scores();
         outln!(
             "turns     {:.0} % verified, median error {:.2}° (commanded {:.2}°); verified turns off by over 3°: {}",
@@ -167,8 +159,19 @@ pub fn example(a: ExampleArgs) -> Result<()> {
             t.median_sweep_commanded_heading_error_deg
         )?;
     }
+    let map_dir = a.out.join("map");
+    super::map::write_map(&ds, &mapped, &map_dir)?;
+    let report = super::map::evaluate(&ds, &mapped, &map_dir, 2.0)?;
+    outln!(
+        "map       trajectory error {:.2} cm (ATE, aligned; commanded motion {:.2} cm); occupied-cell F1 {:.3} (true poses {:.3})",
+        report.trajectory.ate_aligned_m * 100.0,
+        report.commanded.ate_aligned_m * 100.0,
+        report.map.f1,
+        report.true_pose_map.f1
+    )?;
+    let sweeps = &mapped.run.sweeps;
     let sweep_dir = a.out.join("sweeps");
-    super::plots::sweep_plots(&sweeps, &sweep_dir)?;
+    super::plots::sweep_plots(sweeps, &sweep_dir)?;
     outln!(
         "\nlook at  {}  (per frame: -boundary.png, -rop.png, -floor.png)",
         plots.display()
@@ -176,6 +179,10 @@ pub fn example(a: ExampleArgs) -> Result<()> {
     outln!(
         "         {}  (one 360° sweep diagram per spot)",
         sweep_dir.display()
+    )?;
+    outln!(
+        "         {}  (the map with the trajectory; map.pgm/.yaml for ROS, poses.json, poses.tum)",
+        map_dir.join(pirouette::io::map_names::PNG).display()
     )?;
     Ok(())
 }

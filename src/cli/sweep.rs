@@ -30,7 +30,8 @@ pub struct SweepOptions {
 }
 
 impl SweepOptions {
-    fn config(&self) -> Result<SweepConfig> {
+    /// The sweep settings.
+    pub fn config(&self) -> Result<SweepConfig> {
         if !(self.window_deg.is_finite() && self.window_deg > 0.0 && self.window_deg <= 90.0) {
             bail!("--window-deg {} is outside (0, 90]", self.window_deg);
         }
@@ -47,12 +48,36 @@ impl SweepOptions {
     }
 
     fn run(&self, ds: &pirouette::io::Dataset) -> Result<Vec<DatasetSweep>> {
+        Ok(self.run_all(ds)?.sweeps)
+    }
+
+    /// Profiles every frame and assembles the sweeps.
+    pub fn run_all(&self, ds: &pirouette::io::Dataset) -> Result<SweepRun> {
         let extractor = pipeline::extractor(ds, self.profile.model(), self.profile.config(self.bin_deg)?)?;
         let bar = super::progress(ds.manifest.frames.len(), "profile");
         let rops = pipeline::profiles(ds, &extractor, || bar.inc(1))?;
         bar.finish_and_clear();
-        Ok(pipeline::sweeps(ds, &rops, &self.config()?))
+        let config = self.config()?;
+        let sweeps = pipeline::sweeps(ds, &rops, &config);
+        Ok(SweepRun {
+            extractor,
+            rops,
+            sweeps,
+            config,
+        })
     }
+}
+
+/// Profiles and sweeps of a dataset, with what made them.
+pub struct SweepRun {
+    /// The extractor (camera tables, settings).
+    pub extractor: pirouette::vision::RopExtractor,
+    /// One profile per frame.
+    pub rops: Vec<pirouette::profile::Rop>,
+    /// The sweeps assembled.
+    pub sweeps: Vec<DatasetSweep>,
+    /// The sweep settings used.
+    pub config: SweepConfig,
 }
 
 /// Arguments of `pirouette sweep`.

@@ -1,4 +1,8 @@
 //! Scores of the engine's results against ground truth.
+//!
+//! Profiles and sweeps here; trajectories and maps in [`map`].
+
+pub mod map;
 
 use pirouette_io::TruthRop;
 use pirouette_profile::Rop;

@@ -1,0 +1,137 @@
+//! Sweep registration and whole-dataset mapping, on a render of the
+//! built-in multi-sweep field (77 frames, 6 sweeps; rendered once per run).
+//!
+//! - `register_sweep`: the second sweep's 360° profile against the map of
+//!   the first (from the true poses), starting from the pose its commanded
+//!   forward move predicts: the full correlative search and refinement,
+//!   beside the cost of scoring one pose on the lattice and exactly (k-d
+//!   tree), which is why the search runs on the lattice.
+//! - `map_dataset`: images to map end to end (profiles, sweeps,
+//!   registration and refinement, the grid), and `build_map` alone.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use pirouette::geom::Pose2;
+use pirouette::grid::{GridConfig, OccupancyGrid};
+use pirouette::io::{Dataset, Motion};
+use pirouette::mapping::{build_map, MapConfig};
+use pirouette::pipeline;
+use pirouette::profile::sweep::SweepConfig;
+use pirouette::register::{endpoints, register, thin_points, LikelihoodField, MotionNoise, PosePrior};
+use pirouette::vision::VisionConfig;
+use std::hint::black_box;
+
+struct Fixture {
+    _dir: tempfile::TempDir,
+    ds: Dataset,
+}
+
+fn fixture() -> Fixture {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let scene = pirouette::sim::Scene::builtin("field-multi").expect("built in");
+    let root = dir.path().join("field-multi");
+    pirouette::sim::render_dataset(&scene, 1, &root, |_, _| {}).expect("render");
+    let ds = Dataset::open(&root).expect("dataset");
+    Fixture { _dir: dir, ds }
+}
+
+fn vision() -> VisionConfig {
+    VisionConfig {
+        bin_width_rad: 0.25f64.to_radians(),
+        ..VisionConfig::default()
+    }
+}
+
+fn benches(c: &mut Criterion) {
+    let f = fixture();
+    let ds = &f.ds;
+    let extractor = pipeline::extractor(ds, None, vision()).expect("extractor");
+    let blind_m = extractor.table().blind_range().expect("floor");
+    let rops = pipeline::profiles(ds, &extractor, || {}).expect("profiles");
+    let sweeps = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+    let truth = ds.truth_poses().expect("truth");
+    let origin = truth[0].inverse();
+    let truth: Vec<Pose2> = truth.iter().map(|t| origin * *t).collect();
+    let config = MapConfig::default();
+
+    // The map of the first sweep, from its true poses.
+    let mut grid = OccupancyGrid::new(GridConfig::default()).expect("grid");
+    let mut mapped = Vec::new();
+    for &i in &sweeps[0].frames {
+        grid.insert_profile(&truth[i], &rops[i], blind_m);
+        mapped.extend(
+            endpoints(&rops[i])
+                .into_iter()
+                .map(|p| truth[i].transform_point(p)),
+        );
+    }
+    let r = &config.register;
+    mapped.retain(|p| grid.probability_at(p.x, p.y) > r.occupied_threshold);
+    let field = LikelihoodField::from_map(
+        &mapped,
+        &grid,
+        r.free_threshold,
+        r.sigma_m,
+        r.epsilon,
+        r.epsilon_free,
+    );
+    // The second sweep, from the command after the first sweep's last frame.
+    let last = *sweeps[0].frames.last().expect("frames");
+    let first = sweeps[1].frames[0];
+    let forward = match ds.manifest.frames[first].motion {
+        Some(Motion::Forward { forward }) => forward,
+        _ => 0.0,
+    };
+    let prior = PosePrior::after_forward(
+        &truth[last],
+        forward,
+        0.5f64.to_radians(),
+        &MotionNoise::default(),
+    );
+    let points = endpoints(&sweeps[1].sweep.rop);
+    let thinned = thin_points(&points, r.spacing_m);
+
+    let mut group = c.benchmark_group("register_sweep");
+    group.throughput(Throughput::Elements(1));
+    group.bench_function("correlative_search_and_refine", |b| {
+        b.iter(|| register(black_box(&field), black_box(&points), &prior, r).expect("registers"))
+    });
+    let s = field.resolution_m();
+    group.bench_function("one_pose_lattice", |b| {
+        b.iter(|| {
+            thinned
+                .iter()
+                .map(|p| {
+                    let q = prior.mean.transform_point(*p);
+                    field.cell((q.x / s).floor() as i64, (q.y / s).floor() as i64)
+                })
+                .sum::<f32>()
+        })
+    });
+    group.bench_function("one_pose_exact", |b| {
+        b.iter(|| {
+            thinned
+                .iter()
+                .map(|p| field.exact(prior.mean.transform_point(*p)))
+                .sum::<f64>()
+        })
+    });
+    group.finish();
+
+    let mut group = c.benchmark_group("map_dataset");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(ds.manifest.frames.len() as u64));
+    group.bench_function("images_to_map", |b| {
+        b.iter(|| {
+            let rops = pipeline::profiles(ds, &extractor, || {}).expect("profiles");
+            let sweeps = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+            build_map(&ds.manifest.frames, &rops, &sweeps, blind_m, &config, || {}).expect("map")
+        })
+    });
+    group.bench_function("build_map_only", |b| {
+        b.iter(|| build_map(&ds.manifest.frames, &rops, &sweeps, blind_m, &config, || {}).expect("map"))
+    });
+    group.finish();
+}
+
+criterion_group!(register_benches, benches);
+criterion_main!(register_benches);

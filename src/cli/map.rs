@@ -1,0 +1,270 @@
+//! `pirouette map` and `pirouette eval map`.
+
+use super::sweep::{SweepOptions, SweepRun};
+use anyhow::{bail, Context, Result};
+use pirouette::eval::map::{
+    evaluate_map_dir, truth_in_map_frame, MapInputs, MapQuality, MapReport, TrajectoryScores,
+};
+use pirouette::geom::Pose2;
+use pirouette::grid::{GridConfig, RosMap};
+use pirouette::io::{map_names, write_map_dir, Dataset, PoseRecord};
+use pirouette::mapping::{build_map, MapConfig, MapRun};
+use std::path::{Path, PathBuf};
+
+/// Settings of mapping.
+#[derive(clap::Args, Debug, Clone)]
+pub struct MapOptions {
+    #[command(flatten)]
+    sweep: SweepOptions,
+    /// Side of a map cell, metres.
+    #[arg(long, default_value_t = 0.01)]
+    resolution: f64,
+}
+
+impl Default for MapOptions {
+    /// The command line's defaults.
+    fn default() -> Self {
+        #[derive(clap::Parser)]
+        struct Wrapper {
+            #[command(flatten)]
+            options: MapOptions,
+        }
+        <Wrapper as clap::Parser>::parse_from(["pirouette"]).options
+    }
+}
+
+impl MapOptions {
+    fn config(&self, sweep: &pirouette::profile::sweep::SweepConfig) -> Result<MapConfig> {
+        if !(self.resolution.is_finite() && self.resolution >= 0.001 && self.resolution <= 1.0) {
+            bail!("--resolution {} m is outside [0.001, 1]", self.resolution);
+        }
+        Ok(MapConfig {
+            grid: GridConfig {
+                resolution_m: self.resolution,
+                ..GridConfig::default()
+            },
+            sweep: sweep.clone(),
+            ..MapConfig::default()
+        })
+    }
+}
+
+/// Arguments of `pirouette map`.
+#[derive(clap::Args, Debug)]
+pub struct MapArgs {
+    /// Camera dataset folder (laser logs come later).
+    dataset: PathBuf,
+    /// Folder for map.pgm, map.yaml, map.png, poses.json and poses.tum
+    /// (created if missing; files in it are replaced atomically).
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    options: MapOptions,
+}
+
+/// Arguments of `pirouette eval map`.
+#[derive(clap::Args, Debug)]
+pub struct EvalMapArgs {
+    /// The dataset folder, with true poses and truth/world.json.
+    dataset: PathBuf,
+    /// The folder `pirouette map` wrote.
+    dir: PathBuf,
+    /// Settings the map was made with (for the true-pose map beside it).
+    #[command(flatten)]
+    options: MapOptions,
+    /// Tolerance of map quality, in cells.
+    #[arg(long, default_value_t = 2.0)]
+    tolerance_cells: f64,
+    /// One JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Refinement passes `build_map` reports progress for.
+const MAP_REFINE_PASSES: usize = pirouette::mapping::REFINE_PASSES;
+
+/// Profiles, sweeps and the map of a dataset.
+pub struct Mapped {
+    /// The profiles and sweeps.
+    pub run: SweepRun,
+    /// The map.
+    pub map: MapRun,
+    /// The camera's blind distance, metres.
+    pub blind_m: f64,
+    /// The settings used.
+    pub config: MapConfig,
+}
+
+fn open_camera_dataset(path: &Path) -> Result<Dataset> {
+    if path.is_file() && path.file_name().is_some_and(|n| n != "dataset.json") {
+        bail!(
+            "{}: laser logs are not supported by this version; give a camera dataset folder",
+            path.display()
+        );
+    }
+    super::open_dataset(path)
+}
+
+/// Maps a dataset with a progress bar per stage.
+pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
+    let run = options.sweep.run_all(ds)?;
+    let config = options.config(&run.config)?;
+    let blind_m = run
+        .extractor
+        .table()
+        .blind_range()
+        .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
+    let bar = super::progress(run.sweeps.len() + MAP_REFINE_PASSES, "register");
+    let map = build_map(
+        &ds.manifest.frames,
+        &run.rops,
+        &run.sweeps,
+        blind_m,
+        &config,
+        || bar.inc(1),
+    )?;
+    bar.finish_and_clear();
+    Ok(Mapped {
+        run,
+        map,
+        blind_m,
+        config,
+    })
+}
+
+/// Writes the map folder of a mapped dataset.
+pub fn write_map(ds: &Dataset, mapped: &Mapped, dir: &Path) -> Result<()> {
+    let ros = RosMap::from_grid(&mapped.map.grid);
+    let sweep_poses: Vec<Pose2> = mapped.map.sweeps.iter().map(|s| s.pose).collect();
+    let picture = pirouette::plot::map_picture(&ros, &mapped.map.frame_poses, &sweep_poses);
+    let mut png = Vec::new();
+    picture.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    let records: Vec<PoseRecord> = ds
+        .manifest
+        .frames
+        .iter()
+        .zip(&mapped.map.frame_poses)
+        .map(|(f, p)| PoseRecord::frame(&f.image, p))
+        .collect();
+    write_map_dir(dir, &ros, &png, &records)?;
+    Ok(())
+}
+
+/// Evaluates the map folder `dir` of `ds` (made with `mapped`'s settings).
+pub fn evaluate(ds: &Dataset, mapped: &Mapped, dir: &Path, tolerance_cells: f64) -> Result<MapReport> {
+    let span_rad = mapped
+        .run
+        .extractor
+        .table()
+        .bearing_span()
+        .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
+    evaluate_map_dir(
+        ds,
+        dir,
+        MapInputs {
+            rops: &mapped.run.rops,
+            blind_m: mapped.blind_m,
+            span_rad,
+            grid: &mapped.config.grid,
+        },
+        tolerance_cells,
+    )
+}
+
+/// `pirouette map`.
+pub fn map(a: MapArgs) -> Result<()> {
+    let ds = open_camera_dataset(&a.dataset)?;
+    let mapped = map_dataset(&ds, &a.options)?;
+    write_map(&ds, &mapped, &a.out)?;
+    for s in &mapped.map.sweeps {
+        match (&s.prior, &s.registration) {
+            (Some(prior), Some(reg)) => {
+                let shift = prior.mean.between(&reg.pose);
+                outln!(
+                    "sweep {:>2}  ({:>6.3}, {:>6.3}) m {:>7.2}°  {}: {:>5.1} cm, {:>5.2}° from the command; σ {:.1} cm {:.2}°; {} of {} endpoints on the map",
+                    s.id,
+                    s.pose.x,
+                    s.pose.y,
+                    s.pose.theta_deg(),
+                    if reg.accepted { "registered" } else { "NOT REGISTERED (kept the command)" },
+                    shift.translation().norm() * 100.0,
+                    shift.theta.to_degrees(),
+                    100.0 * reg.covariance[(0, 0)].max(reg.covariance[(1, 1)]).sqrt(),
+                    reg.covariance[(2, 2)].sqrt().to_degrees(),
+                    reg.matched,
+                    reg.points
+                )?;
+            }
+            _ => outln!(
+                "sweep {:>2}  ({:>6.3}, {:>6.3}) m {:>7.2}°  defines the map frame",
+                s.id,
+                s.pose.x,
+                s.pose.y,
+                s.pose.theta_deg()
+            )?,
+        }
+    }
+    let ros = RosMap::from_grid(&mapped.map.grid);
+    outln!(
+        "map {} × {} cells of {} cm written to {} (look at {})",
+        ros.width,
+        ros.height,
+        ros.resolution_m * 100.0,
+        a.out.display(),
+        a.out.join(map_names::PNG).display()
+    )?;
+    Ok(())
+}
+
+/// `pirouette eval map`.
+pub fn eval_map(a: EvalMapArgs) -> Result<()> {
+    if !(a.tolerance_cells.is_finite() && a.tolerance_cells > 0.0) {
+        bail!("--tolerance-cells {} must be positive", a.tolerance_cells);
+    }
+    let ds = open_camera_dataset(&a.dataset)?;
+    truth_in_map_frame(&ds)?;
+    let mapped = map_dataset(&ds, &a.options)?;
+    let r = evaluate(&ds, &mapped, &a.dir, a.tolerance_cells)?;
+    if a.json {
+        outln!("{}", serde_json::to_string(&r)?)?;
+        return Ok(());
+    }
+    outln!("dataset {} ({} frames)", r.dataset, r.trajectory.poses)?;
+    let show_trajectory = |name: &str, t: &TrajectoryScores| {
+        outln!(
+            "{name:<12} ATE {:.2} cm aligned, {:.2} cm anchored (max {:.2} cm), heading RMSE {:.2}°",
+            t.ate_aligned_m * 100.0,
+            t.ate_anchored_m * 100.0,
+            t.max_anchored_m * 100.0,
+            t.heading_rmse_deg
+        )
+    };
+    show_trajectory("trajectory", &r.trajectory)?;
+    show_trajectory("commanded", &r.commanded)?;
+    for e in &r.sweeps {
+        outln!(
+            "  sweep {:>2}: first frame off by {:.2} cm, {:+.2}°",
+            e.sweep,
+            e.position_error_m * 100.0,
+            e.heading_error_deg
+        )?;
+    }
+    let show = |name: &str, q: &MapQuality| {
+        outln!(
+            "{name:<12} precision {:.3} ({} occupied cells), recall {:.3} ({} visible edge cells), F1 {:.3}",
+            q.precision,
+            q.occupied_cells,
+            q.recall,
+            q.visible_edge_cells,
+            q.f1
+        )
+    };
+    show("map", &r.map)?;
+    show("true poses", &r.true_pose_map)?;
+    outln!(
+        "F1 is {:.1} % of the true-pose map's (tolerance {:.1} cm)",
+        100.0 * r.f1_ratio,
+        r.tolerance_m * 100.0
+    )?;
+    Ok(())
+}

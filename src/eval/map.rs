@@ -1,0 +1,444 @@
+//! Trajectories and maps against ground truth.
+
+use anyhow::{Context, Result};
+use pirouette_geom::{wrap_angle, Point2, Pose2};
+use pirouette_grid::{GridConfig, RosMap, OCCUPIED};
+use pirouette_io::{map_names, read_poses, read_ros_map, Dataset, World};
+use pirouette_profile::Rop;
+use serde::Serialize;
+use std::collections::HashSet;
+use std::path::Path;
+
+/// The error of one sweep's first frame (anchored).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct SweepError {
+    /// The sweep's id.
+    pub sweep: u32,
+    /// Position error, metres.
+    pub position_error_m: f64,
+    /// Heading error, degrees.
+    pub heading_error_deg: f64,
+}
+
+/// Everything `pirouette eval map` measures.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MapReport {
+    /// The dataset's name.
+    pub dataset: String,
+    /// The map's trajectory against truth.
+    pub trajectory: TrajectoryScores,
+    /// The commanded motion's trajectory against truth.
+    pub commanded: TrajectoryScores,
+    /// Per sweep, its first frame's error.
+    pub sweeps: Vec<SweepError>,
+    /// The map's occupied cells against the scene.
+    pub map: MapQuality,
+    /// The same for a map of the same profiles from the true poses.
+    pub true_pose_map: MapQuality,
+    /// `map.f1 / true_pose_map.f1`.
+    pub f1_ratio: f64,
+    /// Distance within which an occupied cell matches an outline, metres.
+    pub tolerance_m: f64,
+}
+
+/// What a map was made of, for the true-pose map beside it.
+#[derive(Debug, Clone, Copy)]
+pub struct MapInputs<'a> {
+    /// One profile per frame.
+    pub rops: &'a [Rop],
+    /// The camera's blind distance, metres.
+    pub blind_m: f64,
+    /// The bearings the camera sees, radians.
+    pub span_rad: (f64, f64),
+    /// The grid settings the map was made with.
+    pub grid: &'a GridConfig,
+}
+
+/// The true poses re-expressed in the map frame (relative to the true first
+/// frame), or an error naming the manifest.
+pub fn truth_in_map_frame(ds: &Dataset) -> Result<Vec<Pose2>> {
+    let truth = ds.truth_poses().with_context(|| {
+        format!(
+            "{}: frames without truth poses cannot be evaluated",
+            ds.manifest_path().display()
+        )
+    })?;
+    let origin_inv = truth[0].inverse();
+    Ok(truth.iter().map(|t| origin_inv * *t).collect())
+}
+
+/// Evaluates the map folder `dir` that `pirouette map` wrote for `ds`:
+/// trajectory against the true poses, map against `truth/world.json`
+/// (occupied cells within `tolerance_cells` of an outline), beside the
+/// commanded motion and a map of the same profiles from the true poses.
+pub fn evaluate_map_dir(
+    ds: &Dataset,
+    dir: &Path,
+    inputs: MapInputs,
+    tolerance_cells: f64,
+) -> Result<MapReport> {
+    let truth = truth_in_map_frame(ds)?;
+    let world_truth = ds.truth_poses().expect("checked by truth_in_map_frame");
+    let world = ds.world()?.with_context(|| {
+        format!(
+            "{}: no scene to evaluate the map against",
+            ds.world_path().display()
+        )
+    })?;
+    let poses_path = dir.join(map_names::POSES_JSON);
+    let records = read_poses(&poses_path)?;
+    let ros = read_ros_map(&dir.join(map_names::YAML))?;
+    let by_image: std::collections::HashMap<&str, Pose2> = records
+        .iter()
+        .filter_map(|r| r.image.as_deref().map(|i| (i, r.pose())))
+        .collect();
+    let estimated: Vec<Pose2> = ds
+        .manifest
+        .frames
+        .iter()
+        .map(|f| {
+            by_image
+                .get(f.image.as_str())
+                .copied()
+                .with_context(|| format!("{}: no pose for frame {}", poses_path.display(), f.image))
+        })
+        .collect::<Result<_>>()?;
+    let trajectory = trajectory_scores(&estimated, &truth);
+    let commanded = trajectory_scores(&crate::mapping::dead_reckoning(&ds.manifest.frames), &truth);
+    let mut sweeps = Vec::new();
+    let mut seen = HashSet::new();
+    for (i, f) in ds.manifest.frames.iter().enumerate() {
+        if seen.insert(f.sweep) {
+            let e = truth[i].between(&estimated[i]);
+            sweeps.push(SweepError {
+                sweep: f.sweep,
+                position_error_m: e.translation().norm(),
+                heading_error_deg: e.theta.to_degrees(),
+            });
+        }
+    }
+    // Occupied cells into the world through the true first pose.
+    let tolerance_m = tolerance_cells * ros.resolution_m;
+    let visible = visible_outline(
+        &world,
+        &world_truth,
+        inputs.span_rad,
+        inputs.blind_m,
+        ds.manifest.max_range,
+        ros.resolution_m,
+    );
+    let to_world = |map: &RosMap| -> Vec<Point2> {
+        occupied_centres(map)
+            .into_iter()
+            .map(|p| world_truth[0].transform_point(p))
+            .collect()
+    };
+    let map = map_quality(&to_world(&ros), &world, &visible, tolerance_m);
+    let true_grid = crate::mapping::map_with_poses(inputs.rops, &truth, inputs.blind_m, inputs.grid)?;
+    let true_pose_map = map_quality(
+        &to_world(&RosMap::from_grid(&true_grid)),
+        &world,
+        &visible,
+        tolerance_m,
+    );
+    Ok(MapReport {
+        dataset: ds.manifest.name.clone(),
+        trajectory,
+        commanded,
+        sweeps,
+        f1_ratio: map.f1 / true_pose_map.f1,
+        map,
+        true_pose_map,
+        tolerance_m,
+    })
+}
+
+/// Errors of an estimated trajectory against the true one, both in the
+/// map frame (the true poses re-expressed relative to the true first
+/// frame).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TrajectoryScores {
+    /// Poses compared.
+    pub poses: usize,
+    /// RMSE of positions after the best-fit rigid alignment, metres.
+    pub ate_aligned_m: f64,
+    /// RMSE of positions as estimated (anchored at the first frame), metres.
+    pub ate_anchored_m: f64,
+    /// Largest anchored position error, metres.
+    pub max_anchored_m: f64,
+    /// RMSE of anchored headings, degrees.
+    pub heading_rmse_deg: f64,
+}
+
+/// The rigid transform `T` minimising `Σ |T·a_i − b_i|²` (2D, no scale):
+/// centroids matched, rotation from the cross-covariance.
+pub fn align_rigid(a: &[Point2], b: &[Point2]) -> Pose2 {
+    assert_eq!(a.len(), b.len(), "paired points");
+    if a.is_empty() {
+        return Pose2::IDENTITY;
+    }
+    let n = a.len() as f64;
+    let ca = a
+        .iter()
+        .fold(Point2::new(0.0, 0.0), |s, p| Point2::new(s.x + p.x, s.y + p.y));
+    let cb = b
+        .iter()
+        .fold(Point2::new(0.0, 0.0), |s, p| Point2::new(s.x + p.x, s.y + p.y));
+    let (ca, cb) = (Point2::new(ca.x / n, ca.y / n), Point2::new(cb.x / n, cb.y / n));
+    let (mut sin, mut cos) = (0.0, 0.0);
+    for (p, q) in a.iter().zip(b) {
+        let (ax, ay) = (p.x - ca.x, p.y - ca.y);
+        let (bx, by) = (q.x - cb.x, q.y - cb.y);
+        cos += ax * bx + ay * by;
+        sin += ax * by - ay * bx;
+    }
+    let theta = sin.atan2(cos);
+    let rot = Pose2::new(0.0, 0.0, theta);
+    let rca = rot.transform_point(ca);
+    Pose2::new(cb.x - rca.x, cb.y - rca.y, theta)
+}
+
+/// Scores `estimated` against `truth` (paired, map frame).
+pub fn trajectory_scores(estimated: &[Pose2], truth: &[Pose2]) -> TrajectoryScores {
+    assert_eq!(estimated.len(), truth.len(), "paired poses");
+    let n = estimated.len().max(1) as f64;
+    let est: Vec<Point2> = estimated.iter().map(Pose2::translation).collect();
+    let tru: Vec<Point2> = truth.iter().map(Pose2::translation).collect();
+    let dist = |a: Point2, b: Point2| (a.x - b.x).hypot(a.y - b.y);
+    let anchored: Vec<f64> = est.iter().zip(&tru).map(|(a, b)| dist(*a, *b)).collect();
+    let align = align_rigid(&est, &tru);
+    let aligned_sq: f64 = est
+        .iter()
+        .zip(&tru)
+        .map(|(a, b)| dist(align.transform_point(*a), *b).powi(2))
+        .sum();
+    let heading_sq: f64 = estimated
+        .iter()
+        .zip(truth)
+        .map(|(a, b)| wrap_angle(a.theta - b.theta).powi(2))
+        .sum();
+    TrajectoryScores {
+        poses: estimated.len(),
+        ate_aligned_m: (aligned_sq / n).sqrt(),
+        ate_anchored_m: (anchored.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
+        max_anchored_m: anchored.iter().copied().fold(0.0, f64::max),
+        heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
+    }
+}
+
+/// Quality of a map's occupied cells against the true obstacles.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MapQuality {
+    /// Occupied cells in the map.
+    pub occupied_cells: usize,
+    /// Share of occupied cells whose centre lies within the tolerance of a
+    /// true obstacle outline.
+    pub precision: f64,
+    /// Cells of true obstacle outline the robot could see from its true
+    /// positions.
+    pub visible_edge_cells: usize,
+    /// Share of those with an occupied map cell within the tolerance.
+    pub recall: f64,
+    /// Harmonic mean of precision and recall.
+    pub f1: f64,
+}
+
+/// Centres of a map's occupied cells, map frame.
+pub fn occupied_centres(map: &RosMap) -> Vec<Point2> {
+    let s = map.resolution_m;
+    map.pixels
+        .iter()
+        .enumerate()
+        .filter(|(_, &p)| p == OCCUPIED)
+        .map(|(k, _)| {
+            let (col, row) = (k % map.width, k / map.width);
+            let j = map.height - 1 - row;
+            Point2::new(
+                map.origin_m[0] + (col as f64 + 0.5) * s,
+                map.origin_m[1] + (j as f64 + 0.5) * s,
+            )
+        })
+        .collect()
+}
+
+/// The true obstacle outline a robot could see: from each pose (world
+/// frame, robot centre), rays over the view's bearings `span_rad` at steps
+/// that leave no cell of `cell_m` unvisited at `max_range_m`; hits between
+/// `blind_m` and `max_range_m`, one point per cell (world frame, sorted).
+pub fn visible_outline(
+    world: &World,
+    poses: &[Pose2],
+    span_rad: (f64, f64),
+    blind_m: f64,
+    max_range_m: f64,
+    cell_m: f64,
+) -> Vec<Point2> {
+    let step = 0.5 * cell_m / max_range_m;
+    let rays = ((span_rad.1 - span_rad.0) / step).ceil().max(1.0) as usize;
+    let mut cells: HashSet<(i64, i64)> = HashSet::new();
+    let mut out = Vec::new();
+    for pose in poses {
+        for k in 0..=rays {
+            let bearing = span_rad.0 + (span_rad.1 - span_rad.0) * k as f64 / rays as f64;
+            let dir = pose.rotate_vector(Point2::from_polar(1.0, bearing));
+            let Some((t, _)) = world.ray_cast([pose.x, pose.y], [dir.x, dir.y]) else {
+                continue;
+            };
+            if t < blind_m || t > max_range_m {
+                continue;
+            }
+            let p = Point2::new(pose.x + t * dir.x, pose.y + t * dir.y);
+            if cells.insert(((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64)) {
+                out.push(p);
+            }
+        }
+    }
+    out.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    out
+}
+
+/// Precision, recall and F1 of occupied cell centres `occupied` against
+/// the true `world` and its `visible` outline (all in the world frame),
+/// within `tolerance_m`.
+pub fn map_quality(occupied: &[Point2], world: &World, visible: &[Point2], tolerance_m: f64) -> MapQuality {
+    let true_cells = occupied
+        .iter()
+        .filter(|p| world.outline_distance([p.x, p.y]) <= tolerance_m)
+        .count();
+    let precision = if occupied.is_empty() {
+        0.0
+    } else {
+        true_cells as f64 / occupied.len() as f64
+    };
+    // Occupied centres bucketed by the tolerance, so each query looks at
+    // the 3 × 3 buckets around it.
+    let key = |p: &Point2| {
+        (
+            (p.x / tolerance_m).floor() as i64,
+            (p.y / tolerance_m).floor() as i64,
+        )
+    };
+    let mut buckets: std::collections::HashMap<(i64, i64), Vec<Point2>> = Default::default();
+    for p in occupied {
+        buckets.entry(key(p)).or_default().push(*p);
+    }
+    let found = visible
+        .iter()
+        .filter(|v| {
+            let (i, j) = key(v);
+            (-1..=1).any(|di| {
+                (-1..=1).any(|dj| {
+                    buckets
+                        .get(&(i + di, j + dj))
+                        .is_some_and(|b| b.iter().any(|p| (p.x - v.x).hypot(p.y - v.y) <= tolerance_m))
+                })
+            })
+        })
+        .count();
+    let recall = if visible.is_empty() {
+        0.0
+    } else {
+        found as f64 / visible.len() as f64
+    };
+    let f1 = if precision + recall > 0.0 {
+        2.0 * precision * recall / (precision + recall)
+    } else {
+        0.0
+    };
+    MapQuality {
+        occupied_cells: occupied.len(),
+        precision,
+        visible_edge_cells: visible.len(),
+        recall,
+        f1,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pirouette_io::Obstacle;
+
+    #[test]
+    fn rigid_alignment_undoes_a_known_transform() {
+        let a: Vec<Point2> = (0..10)
+            .map(|k| Point2::new(k as f64 * 0.1, (k * k) as f64 * 0.01))
+            .collect();
+        let t = Pose2::new(0.3, -1.2, 0.7);
+        let b: Vec<Point2> = a.iter().map(|p| t.transform_point(*p)).collect();
+        let found = align_rigid(&a, &b);
+        assert!((found.x - t.x).abs() < 1e-12 && (found.y - t.y).abs() < 1e-12);
+        assert!((found.theta - t.theta).abs() < 1e-12);
+        // Scores: a rotated copy is perfect once aligned, not anchored.
+        let est: Vec<Pose2> = a.iter().map(|p| Pose2::new(p.x, p.y, 0.0)).collect();
+        let tru: Vec<Pose2> = b.iter().map(|p| Pose2::new(p.x, p.y, 0.0)).collect();
+        let s = trajectory_scores(&est, &tru);
+        assert!(s.ate_aligned_m < 1e-12 && s.ate_anchored_m > 0.5);
+    }
+
+    #[test]
+    fn anchored_error_is_the_rms_of_distances() {
+        let est = [Pose2::IDENTITY, Pose2::new(1.0, 0.0, 0.0)];
+        let tru = [Pose2::IDENTITY, Pose2::new(1.0, 0.02, 0.01)];
+        let s = trajectory_scores(&est, &tru);
+        assert!((s.ate_anchored_m - (0.02f64 * 0.02 / 2.0).sqrt()).abs() < 1e-12);
+        assert!((s.max_anchored_m - 0.02).abs() < 1e-12);
+        assert!((s.heading_rmse_deg - (0.01f64.powi(2) / 2.0).sqrt().to_degrees()).abs() < 1e-9);
+    }
+
+    fn wall_world() -> World {
+        World {
+            bounds: [0.0, 0.0, 2.0, 2.0],
+            floor_rgb: [0; 3],
+            obstacles: vec![Obstacle::Box {
+                center: [1.0, 0.0],
+                size: [0.03, 2.0],
+                yaw_deg: 0.0,
+                height: 0.1,
+                rgb: [255; 3],
+            }],
+        }
+    }
+
+    #[test]
+    fn visible_outline_is_the_near_face_within_range() {
+        let w = wall_world();
+        let pts = visible_outline(&w, &[Pose2::IDENTITY], (-0.5, 0.5), 0.1, 1.2, 0.01);
+        assert!(!pts.is_empty());
+        // The near face x = 0.985 (mid-cell), seen within 1.2 m and ±0.5 rad.
+        let face = 0.985;
+        let reach = (1.2f64.powi(2) - face * face).sqrt();
+        assert!(pts
+            .iter()
+            .all(|p| (p.x - face).abs() < 1e-9 && p.y.abs() <= reach + 1e-9));
+        // One point per 1 cm cell along the visible stretch, none missing.
+        let expected = (2.0 * (0.5f64.tan() * face).min(reach) / 0.01).round() as i64;
+        assert!(
+            (pts.len() as i64 - expected).abs() <= 2,
+            "{} vs {expected}",
+            pts.len()
+        );
+        let none = visible_outline(&w, &[Pose2::IDENTITY], (-0.5, 0.5), 0.1, 0.9, 0.01);
+        assert!(none.is_empty(), "the wall is beyond the limit");
+    }
+
+    #[test]
+    fn map_quality_counts_true_false_and_missed_cells() {
+        let w = wall_world();
+        let visible: Vec<Point2> = (0..10).map(|k| Point2::new(0.985, k as f64 * 0.01)).collect();
+        // Eight cells on the wall, y from -0.05 to 0.02; two more 4 cm and
+        // 50 cm off it.
+        let mut occupied: Vec<Point2> = (0..8)
+            .map(|k| Point2::new(0.99, -0.05 + k as f64 * 0.01))
+            .collect();
+        occupied.push(Point2::new(0.5, 0.5));
+        occupied.push(Point2::new(0.95, 0.0));
+        let q = map_quality(&occupied, &w, &visible, 0.02);
+        assert_eq!(q.occupied_cells, 10);
+        assert!((q.precision - 0.8).abs() < 1e-12);
+        // Visible (0.985, y) lies within 2 cm of (0.99, 0.02) for
+        // |y − 0.02| ≤ √(0.02² − 0.005²) = 0.0194: y = 0.00 to 0.03, four of ten.
+        assert!((q.recall - 0.4).abs() < 1e-12, "{q:?}");
+        assert!((q.f1 - 2.0 * 0.8 * 0.4 / 1.2).abs() < 1e-12);
+    }
+}

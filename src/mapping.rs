@@ -1,0 +1,528 @@
+//! Maps of whole datasets: sweeps registered one after another against the
+//! map built so far, then fused into one occupancy grid.
+
+use crate::pipeline::DatasetSweep;
+use anyhow::{bail, Result};
+use nalgebra::Matrix3;
+use pirouette_geom::{Point2, Pose2};
+use pirouette_grid::{GridConfig, OccupancyGrid};
+use pirouette_io::{FrameSpec, Motion};
+use pirouette_profile::sweep::SweepConfig;
+use pirouette_profile::Rop;
+use pirouette_register::{
+    endpoints, register, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Registration,
+};
+
+/// Settings of mapping.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapConfig {
+    /// The occupancy grid and its sensor model.
+    pub grid: GridConfig,
+    /// Sweep registration.
+    pub register: RegisterConfig,
+    /// Turning one block or frame of a sweep about the sweep's centre.
+    pub turn: RegisterConfig,
+    /// Errors of forward moves.
+    pub motion: MotionNoise,
+    /// Standard deviations of verified and commanded turns (the sweep
+    /// assembly's).
+    pub sweep: SweepConfig,
+}
+
+impl Default for MapConfig {
+    /// Default grid, registration, motion and sweep settings; turning a
+    /// block about a known centre (one unknown, not three) trusts 6
+    /// endpoints on the map (18 cm of edge) instead of 10.
+    fn default() -> Self {
+        let register = RegisterConfig::default();
+        Self {
+            grid: GridConfig::default(),
+            turn: RegisterConfig {
+                min_matched: 6,
+                ..register.clone()
+            },
+            register,
+            motion: MotionNoise::default(),
+            sweep: SweepConfig::default(),
+        }
+    }
+}
+
+/// Where one sweep ended up.
+#[derive(Debug, Clone)]
+pub struct SweepPose {
+    /// The sweep's id in the manifest.
+    pub id: u32,
+    /// `map_from_robot` of the sweep's first frame.
+    pub pose: Pose2,
+    /// The belief before registration (`None` for the first sweep, which
+    /// defines the map frame).
+    pub prior: Option<PosePrior>,
+    /// The registration against the map so far (`None` for the first
+    /// sweep).
+    pub registration: Option<Registration>,
+    /// Covariance of `pose` in map `(x, y, θ)`.
+    pub covariance: Matrix3<f64>,
+}
+
+/// A mapped dataset.
+#[derive(Debug, Clone)]
+pub struct MapRun {
+    /// The fused grid.
+    pub grid: OccupancyGrid,
+    /// `map_from_robot` of every frame, in capture order.
+    pub frame_poses: Vec<Pose2>,
+    /// One per sweep, in capture order.
+    pub sweeps: Vec<SweepPose>,
+}
+
+/// Splits a sweep into blocks: frames that verified matches join
+/// (consecutive turns, the loop closure, re-matches after the loop), whose
+/// headings relative to each other are known to a match's accuracy.
+/// Blocks are sorted by their first frame.
+fn blocks_of(sweep: &DatasetSweep) -> Vec<Vec<usize>> {
+    components(sweep.frames.len(), &sweep.sweep.links)
+}
+
+/// The connected components of `n` frames joined by `links`, each sorted,
+/// sorted by their first frame.
+fn components(n: usize, links: &[(usize, usize)]) -> Vec<Vec<usize>> {
+    // Union-find over the links, smallest frame as the root.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut k: usize) -> usize {
+        while parent[k] != k {
+            parent[k] = parent[parent[k]];
+            k = parent[k];
+        }
+        k
+    }
+    for &(a, b) in links {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        parent[ra.max(rb)] = ra.min(rb);
+    }
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    let mut index_of_root = vec![usize::MAX; n];
+    for k in 0..n {
+        let r = root(&mut parent, k);
+        if index_of_root[r] == usize::MAX {
+            index_of_root[r] = blocks.len();
+            blocks.push(Vec::new());
+        }
+        blocks[index_of_root[r]].push(k);
+    }
+    blocks
+}
+
+/// The state of one sweep while mapping.
+#[derive(Debug, Clone)]
+struct Placed {
+    /// `map_from_robot` of the sweep's first frame.
+    pose: Pose2,
+    /// Heading of each frame relative to the first, radians.
+    heading_rad: Vec<f64>,
+    /// Blocks of frames (positions within the sweep).
+    blocks: Vec<Vec<usize>>,
+    /// The block the sweep's heading is tied to (its largest).
+    reference: usize,
+    prior: Option<PosePrior>,
+    registration: Option<Registration>,
+    covariance: Matrix3<f64>,
+}
+
+impl Placed {
+    /// A sweep at `pose`, its largest block the reference.
+    fn new(sweep: &DatasetSweep, pose: Pose2) -> Self {
+        let blocks = blocks_of(sweep);
+        let reference = (0..blocks.len())
+            .max_by_key(|&b| (blocks[b].len(), std::cmp::Reverse(b)))
+            .expect("a sweep has a frame");
+        Self {
+            pose,
+            heading_rad: sweep.sweep.heading_rad.clone(),
+            blocks,
+            reference,
+            prior: None,
+            registration: None,
+            covariance: Matrix3::zeros(),
+        }
+    }
+
+    /// `map_from_robot` of the sweep's `k`-th frame.
+    fn frame_pose(&self, k: usize) -> Pose2 {
+        self.pose * Pose2::new(0.0, 0.0, self.heading_rad[k])
+    }
+
+    /// The endpoints of some of the sweep's frames, in its first frame.
+    fn points(&self, sweep: &DatasetSweep, members: &[usize], rops: &[Rop]) -> Vec<Point2> {
+        members
+            .iter()
+            .flat_map(|&k| {
+                let rel = Pose2::new(0.0, 0.0, self.heading_rad[k]);
+                endpoints(&rops[sweep.frames[k]])
+                    .into_iter()
+                    .map(move |p| rel.transform_point(p))
+            })
+            .collect()
+    }
+
+    /// Fallback turns between block `b` and the reference block (at least
+    /// one: different blocks are parted by one).
+    fn fallbacks_between(&self, b: usize) -> f64 {
+        (b as f64 - self.reference as f64).abs().max(1.0)
+    }
+}
+
+/// The likelihood field of the endpoints of `frames` (manifest index and
+/// pose) that the grid of the same frames holds occupied, with the grid's
+/// free floor.
+fn field_of(
+    frames: &[(usize, Pose2)],
+    rops: &[Rop],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Result<LikelihoodField> {
+    let mut grid = OccupancyGrid::new(config.grid.clone())?;
+    for (i, pose) in frames {
+        grid.insert_profile(pose, &rops[*i], blind_m);
+    }
+    let threshold = config.register.occupied_threshold;
+    let support: Vec<Point2> = frames
+        .iter()
+        .flat_map(|(i, pose)| endpoints(&rops[*i]).into_iter().map(|p| pose.transform_point(p)))
+        .filter(|p| grid.probability_at(p.x, p.y) > threshold)
+        .collect();
+    Ok(LikelihoodField::from_map(
+        &support,
+        &grid,
+        config.register.free_threshold,
+        config.register.sigma_m,
+        config.register.epsilon,
+        config.register.epsilon_free,
+    ))
+}
+
+/// Passes of every sweep against the map of the others.
+pub const REFINE_PASSES: usize = 2;
+
+/// How far the first sweep may move against the map of the others in
+/// refinement, metres (one standard deviation): its blocks may have been
+/// mapped askew before later sweeps showed better.
+const FIRST_SWEEP_SHIFT_M: f64 = 0.05;
+
+/// How far an in-place turn moves the robot centre, metres (one standard
+/// deviation): blocks of one sweep share a position this closely.
+const TURN_SHIFT_M: f64 = 0.002;
+
+/// Turns some frames of a sweep (`members`) together about the sweep's
+/// centre to fit `field`, from their current headings within `sigma_rad`.
+/// The turn is kept only when the map pins the heading to better than
+/// `max_sd_rad`.
+#[allow(clippy::too_many_arguments)]
+fn turn_members(
+    placed: &mut Placed,
+    sweep: &DatasetSweep,
+    members: &[usize],
+    rops: &[Rop],
+    field: &LikelihoodField,
+    sigma_rad: f64,
+    max_sd_rad: f64,
+    config: &MapConfig,
+) -> Result<()> {
+    let first = members[0];
+    // The frames in the first member's own frame.
+    let to_first = Pose2::new(0.0, 0.0, -placed.heading_rad[first]);
+    let pts: Vec<Point2> = placed
+        .points(sweep, members, rops)
+        .into_iter()
+        .map(|p| to_first.transform_point(p))
+        .collect();
+    let prior = PosePrior {
+        mean: placed.frame_pose(first),
+        sigma_forward_m: TURN_SHIFT_M,
+        sigma_left_m: TURN_SHIFT_M,
+        sigma_theta_rad: sigma_rad,
+    };
+    let reg = register(field, &pts, &prior, &config.turn)?;
+    if reg.accepted && reg.covariance[(2, 2)].sqrt() < max_sd_rad {
+        let delta = pirouette_geom::wrap_angle(reg.pose.theta - prior.mean.theta);
+        for &k in members {
+            placed.heading_rad[k] += delta;
+        }
+    }
+    Ok(())
+}
+
+/// Places one sweep against `field` by alternating three steps, twice:
+/// register the whole sweep (position and heading) from `prior`; turn each
+/// block but the reference about the sweep's centre, as far as the
+/// fallback turns between it and the reference allow (kept when the map
+/// pins the block three times better than one command does); turn each
+/// frame alone, as far as the verified turns of a sweep may drift (kept
+/// when the map halves that).
+fn place_sweep(
+    placed: &mut Placed,
+    sweep: &DatasetSweep,
+    rops: &[Rop],
+    field: &LikelihoodField,
+    prior: &PosePrior,
+    config: &MapConfig,
+) -> Result<()> {
+    let all: Vec<usize> = (0..sweep.frames.len()).collect();
+    let frame_sigma = config.sweep.verified_sigma_rad * (all.len().max(2) as f64 - 1.0).sqrt();
+    for _ in 0..2 {
+        let reg = register(field, &placed.points(sweep, &all, rops), prior, &config.register)?;
+        placed.pose = reg.pose;
+        placed.covariance = reg.covariance;
+        placed.registration = Some(reg);
+        for b in 0..placed.blocks.len() {
+            if b != placed.reference {
+                let members = placed.blocks[b].clone();
+                let sigma_cmd = config.sweep.commanded_sigma_rad;
+                let sigma = sigma_cmd * placed.fallbacks_between(b).sqrt();
+                turn_members(
+                    placed,
+                    sweep,
+                    &members,
+                    rops,
+                    field,
+                    sigma,
+                    sigma_cmd / 3.0,
+                    config,
+                )?;
+            }
+        }
+        for k in 0..all.len() {
+            turn_members(
+                placed,
+                sweep,
+                &[k],
+                rops,
+                field,
+                frame_sigma,
+                frame_sigma / 2.0,
+                config,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Builds the map of a dataset from its frames' profiles and assembled
+/// sweeps. `frames` are the manifest's frames (for the commanded forward
+/// moves), `blind_m` the camera's blind distance. `progress` is called once
+/// per sweep placed and once per refinement pass.
+///
+/// The first frame defines the map frame: it is `(0, 0, 0)` (its heading
+/// relative to the rest of its sweep is refined like any other). The frames of
+/// a sweep fall into blocks joined by verified turns; a fallback turn's
+/// angle is only as good as the command, so blocks may turn against each
+/// other. Each later sweep starts from the pose its forward move predicts
+/// from the previous sweep's last frame and is registered against the
+/// endpoints mapped so far (those the grid holds occupied, with the grid's
+/// free floor), its blocks turned to fit. Then every sweep is placed again,
+/// twice, against the map of all the others, which corrects the first
+/// sweeps with what later ones saw.
+pub fn build_map(
+    frames: &[FrameSpec],
+    rops: &[Rop],
+    sweeps: &[DatasetSweep],
+    blind_m: f64,
+    config: &MapConfig,
+    progress: impl Fn(),
+) -> Result<MapRun> {
+    if rops.len() != frames.len() {
+        bail!("{} profiles for {} frames", rops.len(), frames.len());
+    }
+    let mut placed: Vec<Placed> = Vec::with_capacity(sweeps.len());
+    let mut inserted: Vec<(usize, Pose2)> = Vec::new();
+    for (s, sweep) in sweeps.iter().enumerate() {
+        let state = match placed.last() {
+            None => Placed::new(sweep, Pose2::IDENTITY),
+            Some(prev) => {
+                let prior = forward_prior(&sweeps[s - 1], prev, frames[sweep.frames[0]].motion, config);
+                let mut state = Placed::new(sweep, prior.mean);
+                state.prior = Some(prior);
+                let field = field_of(&inserted, rops, blind_m, config)?;
+                place_sweep(&mut state, sweep, rops, &field, &prior, config)?;
+                state
+            }
+        };
+        for k in 0..sweep.frames.len() {
+            inserted.push((sweep.frames[k], state.frame_pose(k)));
+        }
+        placed.push(state);
+        progress();
+    }
+
+    // Each sweep against the map of all the others.
+    for _pass in 0..REFINE_PASSES {
+        for (s, sweep) in sweeps.iter().enumerate() {
+            let others: Vec<(usize, Pose2)> = sweeps
+                .iter()
+                .zip(&placed)
+                .enumerate()
+                .filter(|&(o, _)| o != s)
+                .flat_map(|(_, (other, p))| {
+                    (0..other.frames.len()).map(move |k| (other.frames[k], p.frame_pose(k)))
+                })
+                .collect();
+            let field = field_of(&others, rops, blind_m, config)?;
+            // Every sweep may move, the first too (the map frame is set
+            // at the end): as far as its forward move could have erred, or
+            // for the first as far as a commanded turn and a short move.
+            let prior = match placed[s].prior {
+                Some(p) => PosePrior {
+                    mean: placed[s].pose,
+                    ..p
+                },
+                None => PosePrior {
+                    mean: placed[s].pose,
+                    sigma_forward_m: FIRST_SWEEP_SHIFT_M,
+                    sigma_left_m: FIRST_SWEEP_SHIFT_M,
+                    sigma_theta_rad: config.sweep.commanded_sigma_rad,
+                },
+            };
+            place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
+        }
+        progress();
+    }
+
+    // The first frame's heading was refined with the rest; the map frame
+    // is where it ended up.
+    let origin = placed[0].frame_pose(0).inverse();
+    let (sin, cos) = origin.theta.sin_cos();
+    let rotate = Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
+    for p in &mut placed {
+        p.pose = origin * p.pose;
+        p.covariance = rotate * p.covariance * rotate.transpose();
+        if let Some(prior) = p.prior.as_mut() {
+            prior.mean = origin * prior.mean;
+        }
+        if let Some(reg) = p.registration.as_mut() {
+            reg.pose = origin * reg.pose;
+            reg.covariance = rotate * reg.covariance * rotate.transpose();
+        }
+    }
+
+    let mut grid = OccupancyGrid::new(config.grid.clone())?;
+    let mut frame_poses = vec![Pose2::IDENTITY; frames.len()];
+    let mut out = Vec::with_capacity(sweeps.len());
+    for (s, (sweep, p)) in sweeps.iter().zip(&placed).enumerate() {
+        for (k, &i) in sweep.frames.iter().enumerate() {
+            // The first frame is the origin exactly, not to rounding.
+            frame_poses[i] = if s == 0 && k == 0 {
+                Pose2::IDENTITY
+            } else {
+                p.frame_pose(k)
+            };
+            grid.insert_profile(&frame_poses[i], &rops[i], blind_m);
+        }
+        out.push(SweepPose {
+            id: sweep.id,
+            pose: frame_poses[sweep.frames[0]],
+            prior: p.prior,
+            registration: p.registration.clone(),
+            covariance: p.covariance,
+        });
+    }
+    Ok(MapRun {
+        grid,
+        frame_poses,
+        sweeps: out,
+    })
+}
+
+/// The belief in a sweep's first frame after the forward move from the
+/// previous sweep's last frame.
+fn forward_prior(
+    prev_sweep: &DatasetSweep,
+    prev: &Placed,
+    motion: Option<Motion>,
+    config: &MapConfig,
+) -> PosePrior {
+    let last = prev_sweep.frames.len() - 1;
+    let start = prev.frame_pose(last);
+    // The last frame's heading: the sweep's registration, and the block
+    // turns as far as the fallbacks between it and the reference allow.
+    let last_block = prev
+        .blocks
+        .iter()
+        .position(|b| b.contains(&last))
+        .expect("in a block");
+    let start_var = prev.covariance[(2, 2)]
+        + config.sweep.verified_sigma_rad.powi(2)
+        + config.sweep.commanded_sigma_rad.powi(2) * prev.fallbacks_between(last_block);
+    let distance = match motion {
+        Some(Motion::Forward { forward }) => forward,
+        _ => 0.0,
+    };
+    PosePrior::after_forward(&start, distance, start_var.sqrt(), &config.motion)
+}
+
+/// A grid of the profiles seen from given poses (the map a perfect
+/// registration would make).
+pub fn map_with_poses(
+    rops: &[Rop],
+    poses: &[Pose2],
+    blind_m: f64,
+    config: &GridConfig,
+) -> Result<OccupancyGrid> {
+    let mut grid = OccupancyGrid::new(config.clone())?;
+    for (rop, pose) in rops.iter().zip(poses) {
+        grid.insert_profile(pose, rop, blind_m);
+    }
+    Ok(grid)
+}
+
+/// The trajectory the commands alone predict, from `(0, 0, 0)`.
+pub fn dead_reckoning(frames: &[FrameSpec]) -> Vec<Pose2> {
+    let mut pose = Pose2::IDENTITY;
+    frames
+        .iter()
+        .map(|f| {
+            match f.motion {
+                Some(Motion::Turn { turn_deg }) => pose = pose * Pose2::new(0.0, 0.0, turn_deg.to_radians()),
+                Some(Motion::Forward { forward }) => pose = pose * Pose2::new(forward, 0.0, 0.0),
+                None => {}
+            }
+            pose
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_are_the_frames_verified_matches_join() {
+        // Turns 1, 3, 4 verified; the loop closed 5 → 0; frame 6 re-matched
+        // against 3.
+        let links = [(0, 1), (2, 3), (3, 4), (0, 5), (3, 6)];
+        assert_eq!(
+            components(8, &links),
+            vec![vec![0, 1, 5], vec![2, 3, 4, 6], vec![7]]
+        );
+        assert_eq!(components(3, &[]), vec![vec![0], vec![1], vec![2]]);
+    }
+
+    #[test]
+    fn dead_reckoning_follows_the_commands() {
+        let frame = |motion| FrameSpec {
+            image: String::new(),
+            sweep: 0,
+            motion,
+            truth: None,
+        };
+        let frames = [
+            frame(None),
+            frame(Some(Motion::Turn { turn_deg: 90.0 })),
+            frame(Some(Motion::Forward { forward: 0.5 })),
+            frame(Some(Motion::Turn { turn_deg: -45.0 })),
+        ];
+        let poses = dead_reckoning(&frames);
+        assert_eq!(poses[0], Pose2::IDENTITY);
+        assert!((poses[2].x).abs() < 1e-12 && (poses[2].y - 0.5).abs() < 1e-12);
+        assert!((poses[3].theta - 45f64.to_radians()).abs() < 1e-12);
+    }
+}

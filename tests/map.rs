@@ -1,0 +1,133 @@
+//! Maps of whole datasets: the files `pirouette map` writes and their
+//! accuracy against truth (`pirouette eval map`).
+
+use crate::util::{pirouette, rendered, shared};
+use pirouette::io::{map_names, read_poses, read_ros_map, Dataset};
+use std::path::Path;
+
+/// Maps `dataset` into `out` and evaluates it, returning the report.
+fn map_and_eval(dataset: &Path, out: &Path) -> serde_json::Value {
+    let o = pirouette(&["map", dataset.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = pirouette(&[
+        "eval",
+        "map",
+        dataset.to_str().unwrap(),
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(stdout.lines().count(), 1, "{stdout}");
+    serde_json::from_str(stdout.trim()).unwrap()
+}
+
+fn num(v: &serde_json::Value, path: &[&str]) -> f64 {
+    path.iter()
+        .fold(v, |v, k| &v[*k])
+        .as_f64()
+        .unwrap_or_else(|| panic!("{path:?} in {v}"))
+}
+
+#[test]
+fn map_folder_holds_every_file_in_the_contract() {
+    let root = rendered("field-multi", 17);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("map");
+    let report = map_and_eval(&root, &out);
+    // ROS map: trinary P5 and its YAML.
+    let ros = read_ros_map(&out.join(map_names::YAML)).unwrap();
+    assert!(ros.pixels.iter().all(|p| [0u8, 205, 254].contains(p)));
+    assert!(ros.pixels.contains(&0) && ros.pixels.contains(&254));
+    let pgm = std::fs::read(out.join(map_names::PGM)).unwrap();
+    assert!(pgm.starts_with(b"P5\n"));
+    let png = image::open(out.join(map_names::PNG)).unwrap();
+    assert!(png.width() >= 600 || png.height() >= 600);
+    // One pose per frame, in the map frame: the first at the origin.
+    let ds = Dataset::open(&root).unwrap();
+    let poses = read_poses(&out.join(map_names::POSES_JSON)).unwrap();
+    assert_eq!(poses.len(), ds.manifest.frames.len());
+    for (p, f) in poses.iter().zip(&ds.manifest.frames) {
+        assert_eq!(p.image.as_deref(), Some(f.image.as_str()));
+    }
+    assert_eq!((poses[0].x, poses[0].y, poses[0].theta_deg), (0.0, 0.0, 0.0));
+    let tum = std::fs::read_to_string(out.join(map_names::POSES_TUM)).unwrap();
+    assert_eq!(tum.lines().filter(|l| !l.starts_with('#')).count(), poses.len());
+    // Mapping again replaces the files and leaves no temporary ones.
+    let o = pirouette(&["map", root.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success());
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 5);
+    assert!(num(&report, &["trajectory", "poses"]) as usize == poses.len());
+}
+
+#[test]
+fn registered_sweeps_map_a_rendered_field_to_a_centimetre() {
+    let root = rendered("field-multi", 17);
+    let dir = tempfile::tempdir().unwrap();
+    let r = map_and_eval(&root, &dir.path().join("map"));
+    eprintln!("{r}");
+    let ate = num(&r, &["trajectory", "ate_aligned_m"]);
+    let commanded = num(&r, &["commanded", "ate_aligned_m"]);
+    assert!(ate <= 0.02, "ATE {ate} m");
+    assert!(ate * 10.0 < commanded, "{ate} vs commanded {commanded}");
+    assert!(num(&r, &["trajectory", "ate_anchored_m"]) <= 0.025);
+    assert!(num(&r, &["map", "f1"]) >= 0.85, "{}", r["map"]);
+    assert!(num(&r, &["f1_ratio"]) >= 0.85, "{r}");
+    // The true-pose map checks the evaluation itself: the profiles are
+    // right, so a map from the true poses matches the scene.
+    assert!(
+        num(&r, &["true_pose_map", "precision"]) >= 0.97,
+        "{}",
+        r["true_pose_map"]
+    );
+    assert!(
+        num(&r, &["true_pose_map", "recall"]) >= 0.95,
+        "{}",
+        r["true_pose_map"]
+    );
+}
+
+#[test]
+fn shared_datasets_map_far_better_than_the_commands() {
+    let Some(shared) = shared("shared_datasets_map_far_better_than_the_commands") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for (name, max_ate_m) in [("field-multi", 0.02), ("office-multi", 0.2)] {
+        let root = shared.join("datasets").join(name);
+        let r = map_and_eval(&root, &dir.path().join(name));
+        eprintln!("{name}: {r}");
+        let ate = num(&r, &["trajectory", "ate_aligned_m"]);
+        assert!(ate <= max_ate_m, "{name}: ATE {ate} m");
+        assert!(ate * 2.0 < num(&r, &["commanded", "ate_aligned_m"]), "{name}");
+        checked += 1;
+    }
+    assert_eq!(checked, 2);
+}
+
+#[test]
+fn map_and_eval_refuse_bad_input_with_the_file_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("robot.log");
+    std::fs::write(&log, "ROBOTLASER1 0 0\n").unwrap();
+    let o = pirouette(&[
+        "map",
+        log.to_str().unwrap(),
+        "--out",
+        dir.path().join("m").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("robot.log") && err.contains("laser"), "{err}");
+
+    // A map folder without poses.
+    let root = rendered("field-multi", 17);
+    let empty = dir.path().join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = pirouette(&["eval", "map", root.to_str().unwrap(), empty.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("poses.json"), "{err}");
+}
