@@ -260,10 +260,12 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
         )
     };
     show("map", &r.map)?;
+    show("map aligned", &r.map_aligned)?;
     show("true poses", &r.true_pose_map)?;
     outln!(
-        "F1 is {:.1} % of the true-pose map's (tolerance {:.1} cm)",
+        "F1 is {:.1} % of the true-pose map's ({:.1} % aligned; tolerance {:.1} cm)",
         100.0 * r.f1_ratio,
+        100.0 * r.f1_ratio_aligned,
         r.tolerance_m * 100.0
     )?;
     Ok(())

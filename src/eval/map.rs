@@ -31,12 +31,17 @@ pub struct MapReport {
     pub commanded: TrajectoryScores,
     /// Per sweep, its first frame's error.
     pub sweeps: Vec<SweepError>,
-    /// The map's occupied cells against the scene.
+    /// The map's occupied cells against the scene, in the map frame (the
+    /// true first frame).
     pub map: MapQuality,
+    /// The same after the trajectory's best-fit rigid alignment.
+    pub map_aligned: MapQuality,
     /// The same for a map of the same profiles from the true poses.
     pub true_pose_map: MapQuality,
     /// `map.f1 / true_pose_map.f1`.
     pub f1_ratio: f64,
+    /// `map_aligned.f1 / true_pose_map.f1`.
+    pub f1_ratio_aligned: f64,
     /// Distance within which an occupied cell matches an outline, metres.
     pub tolerance_m: f64,
 }
@@ -134,6 +139,16 @@ pub fn evaluate_map_dir(
             .collect()
     };
     let map = map_quality(&to_world(&ros), &world, &visible, tolerance_m);
+    // The same map moved by the trajectory's best-fit alignment: its shape,
+    // whatever the first frame's own error.
+    let est: Vec<Point2> = estimated.iter().map(Pose2::translation).collect();
+    let tru: Vec<Point2> = truth.iter().map(Pose2::translation).collect();
+    let align = align_rigid(&est, &tru);
+    let aligned: Vec<Point2> = occupied_centres(&ros)
+        .into_iter()
+        .map(|p| world_truth[0].transform_point(align.transform_point(p)))
+        .collect();
+    let map_aligned = map_quality(&aligned, &world, &visible, tolerance_m);
     let true_grid = crate::mapping::map_with_poses(inputs.rops, &truth, inputs.blind_m, inputs.grid)?;
     let true_pose_map = map_quality(
         &to_world(&RosMap::from_grid(&true_grid)),
@@ -147,7 +162,9 @@ pub fn evaluate_map_dir(
         commanded,
         sweeps,
         f1_ratio: map.f1 / true_pose_map.f1,
+        f1_ratio_aligned: map_aligned.f1 / true_pose_map.f1,
         map,
+        map_aligned,
         true_pose_map,
         tolerance_m,
     })

@@ -9,6 +9,9 @@ pub const FREE: u8 = 254;
 /// Grey level of an unknown cell.
 pub const UNKNOWN: u8 = 205;
 
+/// Unknown cells kept around the known part of an exported map.
+pub const MAP_BORDER_CELLS: i64 = 10;
+
 /// A map as `map_server` reads it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RosMap {
@@ -30,10 +33,22 @@ pub struct RosMap {
 
 impl RosMap {
     /// The trinary map of `grid` with `map_server`'s default thresholds
-    /// (occupied above 0.65, free below 0.196).
+    /// (occupied above 0.65, free below 0.196), cropped to the cells any
+    /// profile touched plus a border of [`MAP_BORDER_CELLS`].
     pub fn from_grid(grid: &OccupancyGrid) -> Self {
         let (occupied_thresh, free_thresh) = (OCCUPIED_THRESH, FREE_THRESH);
-        let (min_i, min_j, width, height) = grid.extent();
+        let (min_i, min_j, width, height) = match grid.known_extent() {
+            Some((lo, hi)) => {
+                let b = MAP_BORDER_CELLS;
+                (
+                    lo.0 - b,
+                    lo.1 - b,
+                    (hi.0 - lo.0 + 1 + 2 * b) as usize,
+                    (hi.1 - lo.1 + 1 + 2 * b) as usize,
+                )
+            }
+            None => (0, 0, 0, 0),
+        };
         let mut pixels = vec![UNKNOWN; width * height];
         for row in 0..height {
             let j = min_j + (height - 1 - row) as i64;
@@ -101,6 +116,8 @@ mod tests {
         assert_eq!(m.pixels[row * m.width + col], OCCUPIED);
         let col_free = ((0.3 - m.origin_m[0]) / m.resolution_m).floor() as usize;
         assert_eq!(m.pixels[row * m.width + col_free], FREE);
+        // Cropped to what was seen, with the border.
+        assert!(m.width <= 60 + 2 * MAP_BORDER_CELLS as usize, "{}", m.width);
         let pgm = m.pgm();
         assert!(pgm.starts_with(format!("P5\n{} {}\n255\n", m.width, m.height).as_bytes()));
         assert_eq!(

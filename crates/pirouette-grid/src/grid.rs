@@ -179,6 +179,23 @@ impl OccupancyGrid {
         self.probability(i, j)
     }
 
+    /// The smallest box of cells holding every cell some profile touched:
+    /// `(min, max)` cell indices, inclusive; `None` for an untouched grid.
+    pub fn known_extent(&self) -> Option<((i64, i64), (i64, i64))> {
+        let mut out: Option<((i64, i64), (i64, i64))> = None;
+        for (k, _) in self.log_odds.iter().enumerate().filter(|(_, &v)| v != 0.0) {
+            let (i, j) = (
+                self.min_cell.0 + (k % self.width) as i64,
+                self.min_cell.1 + (k / self.width) as i64,
+            );
+            out = Some(match out {
+                None => ((i, j), (i, j)),
+                Some((lo, hi)) => ((lo.0.min(i), lo.1.min(j)), (hi.0.max(i), hi.1.max(j))),
+            });
+        }
+        out
+    }
+
     /// The cells whose probability exceeds `threshold`, sorted by `(j, i)`.
     pub fn cells_above(&self, threshold: f64) -> Vec<(i64, i64)> {
         let l = logit(threshold) - logit(self.config.prior);

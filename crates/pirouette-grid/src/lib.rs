@@ -30,6 +30,6 @@ mod export;
 mod grid;
 mod traverse;
 
-pub use export::{RosMap, FREE, OCCUPIED, UNKNOWN};
+pub use export::{RosMap, FREE, MAP_BORDER_CELLS, OCCUPIED, UNKNOWN};
 pub use grid::{GridConfig, GridError, OccupancyGrid, FREE_THRESH, OCCUPIED_THRESH};
 pub use traverse::traverse;
