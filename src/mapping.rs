@@ -204,10 +204,11 @@ fn field_of(
 /// Passes of every sweep against the map of the others.
 pub const REFINE_PASSES: usize = 2;
 
-/// How far the first sweep may move against the map of the others in
-/// refinement, metres (one standard deviation): its blocks may have been
-/// mapped askew before later sweeps showed better.
-const FIRST_SWEEP_SHIFT_M: f64 = 0.05;
+/// How far a sweep may move against the map of the others in refinement,
+/// metres (one standard deviation; its heading as far as one commanded
+/// turn errs): the first sweep's blocks may have been mapped askew before
+/// later sweeps showed better, and later sweeps were placed against that.
+const REFINE_SHIFT_M: f64 = 0.05;
 
 /// How far an in-place turn moves the robot centre, metres (one standard
 /// deviation): blocks of one sweep share a position this closely.
@@ -367,20 +368,13 @@ pub fn build_map(
                 })
                 .collect();
             let field = field_of(&others, rops, blind_m, config)?;
-            // Every sweep may move, the first too (the map frame is set
-            // at the end): as far as its forward move could have erred, or
-            // for the first as far as a commanded turn and a short move.
-            let prior = match placed[s].prior {
-                Some(p) => PosePrior {
-                    mean: placed[s].pose,
-                    ..p
-                },
-                None => PosePrior {
-                    mean: placed[s].pose,
-                    sigma_forward_m: FIRST_SWEEP_SHIFT_M,
-                    sigma_left_m: FIRST_SWEEP_SHIFT_M,
-                    sigma_theta_rad: config.sweep.commanded_sigma_rad,
-                },
+            // Every sweep may move, the first too (the map frame is set at
+            // the end), but only locally: the first pass found the basin.
+            let prior = PosePrior {
+                mean: placed[s].pose,
+                sigma_forward_m: REFINE_SHIFT_M,
+                sigma_left_m: REFINE_SHIFT_M,
+                sigma_theta_rad: config.sweep.commanded_sigma_rad,
             };
             place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
         }
