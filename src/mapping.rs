@@ -122,7 +122,8 @@ struct Placed {
     heading_rad: Vec<f64>,
     /// Blocks of frames (positions within the sweep).
     blocks: Vec<Vec<usize>>,
-    /// The block the sweep's heading is tied to (its largest).
+    /// The largest block: the next sweep's heading prior counts the
+    /// fallback turns from it to the last frame's block.
     reference: usize,
     prior: Option<PosePrior>,
     registration: Option<Registration>,
@@ -210,56 +211,110 @@ pub const REFINE_PASSES: usize = 2;
 /// later sweeps showed better, and later sweeps were placed against that.
 const REFINE_SHIFT_M: f64 = 0.05;
 
+/// The weak pull of each heading to its current value in the chain solve
+/// (only keeps the system well posed).
+const CHAIN_WEAK_RAD: f64 = 0.17453292519943295;
+
 /// How far an in-place turn moves the robot centre, metres (one standard
 /// deviation): blocks of one sweep share a position this closely.
 const TURN_SHIFT_M: f64 = 0.002;
 
-/// Turns some frames of a sweep (`members`) together about the sweep's
-/// centre to fit `field`, from their current headings within `sigma_rad`.
-/// The turn is kept only when the map pins the heading to better than
-/// `max_sd_rad`.
-#[allow(clippy::too_many_arguments)]
-fn turn_members(
+/// Solves the headings of a sweep's frames (about its centre) from the
+/// turns between them and what the map says of each frame alone: a chain
+/// of relative headings (verified links to a match's accuracy, fallback
+/// turns to a command's), anchored where a frame's own registration (a
+/// turn about the centre, searched within one command's error) pins its
+/// heading to better than half that. Every heading also keeps a weak pull
+/// (10°) to its current value, so a frame without anchors or links stays.
+/// Linear least squares; anchors more than three standard deviations from
+/// the solution are dropped and it is solved again.
+fn chain_headings(
     placed: &mut Placed,
     sweep: &DatasetSweep,
-    members: &[usize],
     rops: &[Rop],
     field: &LikelihoodField,
-    sigma_rad: f64,
-    max_sd_rad: f64,
     config: &MapConfig,
 ) -> Result<()> {
-    let first = members[0];
-    // The frames in the first member's own frame.
-    let to_first = Pose2::new(0.0, 0.0, -placed.heading_rad[first]);
-    let pts: Vec<Point2> = placed
-        .points(sweep, members, rops)
-        .into_iter()
-        .map(|p| to_first.transform_point(p))
+    let n = sweep.frames.len();
+    let cur = placed.heading_rad.clone();
+    let sigma_cmd = config.sweep.commanded_sigma_rad;
+    let sigma_ver = config.sweep.verified_sigma_rad;
+    // A frame's own registration searches as far as one command errs.
+    let anchor_window = sigma_cmd;
+    let mut anchors: Vec<(usize, f64, f64)> = Vec::new();
+    for (k, &heading) in cur.iter().enumerate() {
+        let to_frame = Pose2::new(0.0, 0.0, -heading);
+        let pts: Vec<Point2> = placed
+            .points(sweep, &[k], rops)
+            .into_iter()
+            .map(|p| to_frame.transform_point(p))
+            .collect();
+        let prior = PosePrior {
+            mean: placed.frame_pose(k),
+            sigma_forward_m: TURN_SHIFT_M,
+            sigma_left_m: TURN_SHIFT_M,
+            sigma_theta_rad: anchor_window,
+        };
+        let reg = register(field, &pts, &prior, &config.turn)?;
+        let sd = reg.covariance[(2, 2)].sqrt().max(sigma_ver);
+        if reg.accepted && sd < anchor_window / 2.0 {
+            anchors.push((
+                k,
+                heading + pirouette_geom::wrap_angle(reg.pose.theta - prior.mean.theta),
+                sd,
+            ));
+        }
+    }
+    let mut links: Vec<(usize, usize, f64, f64)> = sweep
+        .sweep
+        .links
+        .iter()
+        .map(|&(a, b)| (a, b, cur[b] - cur[a], sigma_ver))
         .collect();
-    let prior = PosePrior {
-        mean: placed.frame_pose(first),
-        sigma_forward_m: TURN_SHIFT_M,
-        sigma_left_m: TURN_SHIFT_M,
-        sigma_theta_rad: sigma_rad,
-    };
-    let reg = register(field, &pts, &prior, &config.turn)?;
-    if reg.accepted && reg.covariance[(2, 2)].sqrt() < max_sd_rad {
-        let delta = pirouette_geom::wrap_angle(reg.pose.theta - prior.mean.theta);
-        for &k in members {
-            placed.heading_rad[k] += delta;
+    for k in 1..n {
+        if !sweep.sweep.links.iter().any(|&(_, b)| b == k) {
+            links.push((k - 1, k, cur[k] - cur[k - 1], sigma_cmd));
+        }
+    }
+    let weak = CHAIN_WEAK_RAD;
+    for _round in 0..2 {
+        let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+        let mut b = nalgebra::DVector::<f64>::zeros(n);
+        for k in 0..n {
+            a[(k, k)] += 1.0 / (weak * weak);
+            b[k] += cur[k] / (weak * weak);
+        }
+        for &(i, j, d, s) in &links {
+            let w = 1.0 / (s * s);
+            a[(i, i)] += w;
+            a[(j, j)] += w;
+            a[(i, j)] -= w;
+            a[(j, i)] -= w;
+            b[i] -= w * d;
+            b[j] += w * d;
+        }
+        for &(k, v, s) in &anchors {
+            let w = 1.0 / (s * s);
+            a[(k, k)] += w;
+            b[k] += w * v;
+        }
+        let Some(x) = a.clone().cholesky().map(|c| c.solve(&b)) else {
+            return Ok(());
+        };
+        let before = anchors.len();
+        anchors.retain(|&(k, v, s)| (x[k] - v).abs() <= 3.0 * s);
+        placed.heading_rad = x.iter().copied().collect();
+        if anchors.len() == before {
+            break;
         }
     }
     Ok(())
 }
 
-/// Places one sweep against `field` by alternating three steps, twice:
-/// register the whole sweep (position and heading) from `prior`; turn each
-/// block but the reference about the sweep's centre, as far as the
-/// fallback turns between it and the reference allow (kept when the map
-/// pins the block three times better than one command does); turn each
-/// frame alone, as far as the verified turns of a sweep may drift (kept
-/// when the map halves that).
+/// Places one sweep against `field` by alternating two steps, twice:
+/// register the whole sweep (position and heading) from `prior`, then solve
+/// its frames' headings about that centre from their turns and their own
+/// registrations ([`chain_headings`]).
 fn place_sweep(
     placed: &mut Placed,
     sweep: &DatasetSweep,
@@ -269,41 +324,12 @@ fn place_sweep(
     config: &MapConfig,
 ) -> Result<()> {
     let all: Vec<usize> = (0..sweep.frames.len()).collect();
-    let frame_sigma = config.sweep.verified_sigma_rad * (all.len().max(2) as f64 - 1.0).sqrt();
     for _ in 0..2 {
         let reg = register(field, &placed.points(sweep, &all, rops), prior, &config.register)?;
         placed.pose = reg.pose;
         placed.covariance = reg.covariance;
         placed.registration = Some(reg);
-        for b in 0..placed.blocks.len() {
-            if b != placed.reference {
-                let members = placed.blocks[b].clone();
-                let sigma_cmd = config.sweep.commanded_sigma_rad;
-                let sigma = sigma_cmd * placed.fallbacks_between(b).sqrt();
-                turn_members(
-                    placed,
-                    sweep,
-                    &members,
-                    rops,
-                    field,
-                    sigma,
-                    sigma_cmd / 3.0,
-                    config,
-                )?;
-            }
-        }
-        for k in 0..all.len() {
-            turn_members(
-                placed,
-                sweep,
-                &[k],
-                rops,
-                field,
-                frame_sigma,
-                frame_sigma / 2.0,
-                config,
-            )?;
-        }
+        chain_headings(placed, sweep, rops, field, config)?;
     }
     Ok(())
 }
@@ -313,16 +339,15 @@ fn place_sweep(
 /// moves), `blind_m` the camera's blind distance. `progress` is called once
 /// per sweep placed and once per refinement pass.
 ///
-/// The first frame defines the map frame: it is `(0, 0, 0)` (its heading
-/// relative to the rest of its sweep is refined like any other). The frames of
-/// a sweep fall into blocks joined by verified turns; a fallback turn's
-/// angle is only as good as the command, so blocks may turn against each
-/// other. Each later sweep starts from the pose its forward move predicts
-/// from the previous sweep's last frame and is registered against the
-/// endpoints mapped so far (those the grid holds occupied, with the grid's
-/// free floor), its blocks turned to fit. Then every sweep is placed again,
-/// twice, against the map of all the others, which corrects the first
-/// sweeps with what later ones saw.
+/// Each sweep after the first starts from the pose its forward move
+/// predicts from the previous sweep's last frame and is registered against
+/// the endpoints mapped so far (those the grid holds occupied, with the
+/// grid's free floor); then its frames' headings are solved about its
+/// centre from their turns (verified ones to a match's accuracy, fallbacks
+/// to a command's) and their own registrations. Then every sweep is placed
+/// again, twice, against the map of all the others, which corrects the
+/// first sweeps with what later ones saw. The map frame is set last: the
+/// first frame is `(0, 0, 0)`.
 pub fn build_map(
     frames: &[FrameSpec],
     rops: &[Rop],
@@ -436,8 +461,8 @@ fn forward_prior(
 ) -> PosePrior {
     let last = prev_sweep.frames.len() - 1;
     let start = prev.frame_pose(last);
-    // The last frame's heading: the sweep's registration, and the block
-    // turns as far as the fallbacks between it and the reference allow.
+    // The last frame's heading: the sweep's registration, and a command's
+    // error per fallback turn between its block and the largest.
     let last_block = prev
         .blocks
         .iter()

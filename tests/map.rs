@@ -71,8 +71,8 @@ fn registered_sweeps_map_a_rendered_field_to_a_centimetre() {
     assert!(ate <= 0.02, "ATE {ate} m");
     assert!(ate * 10.0 < commanded, "{ate} vs commanded {commanded}");
     assert!(num(&r, &["trajectory", "ate_anchored_m"]) <= 0.025);
-    assert!(num(&r, &["map", "f1"]) >= 0.85, "{}", r["map"]);
-    assert!(num(&r, &["f1_ratio"]) >= 0.85, "{r}");
+    assert!(num(&r, &["map", "f1"]) >= 0.9, "{}", r["map"]);
+    assert!(num(&r, &["f1_ratio"]) >= 0.9, "{r}");
     // The true-pose map checks the evaluation itself: the profiles are
     // right, so a map from the true poses matches the scene.
     assert!(
@@ -94,13 +94,16 @@ fn shared_datasets_map_far_better_than_the_commands() {
     };
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
-    for (name, max_ate_m) in [("field-multi", 0.02), ("office-multi", 0.2)] {
+    // The office is far from its targets (see BENCHMARKS.md): it is held
+    // to beating the commands.
+    for (name, max_ate_m, min_f1) in [("field-multi", 0.02, 0.9), ("office-multi", 0.2, 0.4)] {
         let root = shared.join("datasets").join(name);
         let r = map_and_eval(&root, &dir.path().join(name));
         eprintln!("{name}: {r}");
         let ate = num(&r, &["trajectory", "ate_aligned_m"]);
         assert!(ate <= max_ate_m, "{name}: ATE {ate} m");
         assert!(ate * 2.0 < num(&r, &["commanded", "ate_aligned_m"]), "{name}");
+        assert!(num(&r, &["map", "f1"]) >= min_f1, "{name}: {}", r["map"]);
         checked += 1;
     }
     assert_eq!(checked, 2);
