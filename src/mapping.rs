@@ -20,7 +20,8 @@ pub struct MapConfig {
     pub grid: GridConfig,
     /// Sweep registration.
     pub register: RegisterConfig,
-    /// Turning one block or frame of a sweep about the sweep's centre.
+    /// Registering one frame alone about its sweep's centre (the anchors of
+    /// the heading chain).
     pub turn: RegisterConfig,
     /// Errors of forward moves.
     pub motion: MotionNoise,
@@ -30,8 +31,8 @@ pub struct MapConfig {
 }
 
 impl Default for MapConfig {
-    /// Default grid, registration, motion and sweep settings; turning a
-    /// block about a known centre (one unknown, not three) trusts 6
+    /// Default grid, registration, motion and sweep settings; a frame's
+    /// heading about a known centre (one unknown, not three) trusts 6
     /// endpoints on the map (18 cm of edge) instead of 10.
     fn default() -> Self {
         let register = RegisterConfig::default();
@@ -55,11 +56,11 @@ pub struct SweepPose {
     pub id: u32,
     /// `map_from_robot` of the sweep's first frame.
     pub pose: Pose2,
-    /// The belief before registration (`None` for the first sweep, which
-    /// defines the map frame).
+    /// The belief from the commanded forward move, before registration
+    /// (`None` for the first sweep, which defines the map frame).
     pub prior: Option<PosePrior>,
-    /// The registration against the map so far (`None` for the first
-    /// sweep).
+    /// The last registration of the sweep, against the map of all the
+    /// others (`None` when there are no others).
     pub registration: Option<Registration>,
     /// Covariance of `pose` in map `(x, y, θ)`.
     pub covariance: Matrix3<f64>,
@@ -207,16 +208,16 @@ pub const REFINE_PASSES: usize = 2;
 
 /// How far a sweep may move against the map of the others in refinement,
 /// metres (one standard deviation; its heading as far as one commanded
-/// turn errs): the first sweep's blocks may have been mapped askew before
+/// turn errs): the first sweep's frames may have been mapped askew before
 /// later sweeps showed better, and later sweeps were placed against that.
 const REFINE_SHIFT_M: f64 = 0.05;
 
 /// The weak pull of each heading to its current value in the chain solve
 /// (only keeps the system well posed).
-const CHAIN_WEAK_RAD: f64 = 0.17453292519943295;
+const CHAIN_WEAK_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
 /// How far an in-place turn moves the robot centre, metres (one standard
-/// deviation): blocks of one sweep share a position this closely.
+/// deviation): the frames of one sweep share a position this closely.
 const TURN_SHIFT_M: f64 = 0.002;
 
 /// Solves the headings of a sweep's frames (about its centre) from the

@@ -179,7 +179,7 @@ pub fn map(a: MapArgs) -> Result<()> {
     for s in &mapped.map.sweeps {
         match (&s.prior, &s.registration) {
             (Some(prior), Some(reg)) => {
-                let shift = prior.mean.between(&reg.pose);
+                let shift = prior.mean.between(&s.pose);
                 outln!(
                     "sweep {:>2}  ({:>6.3}, {:>6.3}) m {:>7.2}°  {}: {:>5.1} cm, {:>5.2}° from the command; σ {:.1} cm {:.2}°; {} of {} endpoints on the map",
                     s.id,
