@@ -252,7 +252,8 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     // First pass with the nominal noise; then the noise measured in the
     // residuals of that best match sets the scale of the costs and of the
     // significance (the profiles' own noise, not an assumed one).
-    let nominal = cost_curve(&a, &b, offset, k_lo, k_hi, config.inverse_range_sigma, config);
+    let (sa, sb) = (signals(&a), signals(&b));
+    let nominal = cost_curve(&sa, &sb, offset, k_lo, k_hi, config.inverse_range_sigma, config);
     let Some(first) = best_of(&nominal) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
     };
@@ -260,7 +261,12 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         .map_or(config.inverse_range_sigma, |s| {
             s.clamp(config.min_inverse_range_sigma, config.inverse_range_sigma)
         });
-    let curve = cost_curve(&a, &b, offset, k_lo, k_hi, sigma, config);
+    // A noise measured at (or clamped to) the nominal one gives the same curve.
+    let curve = if sigma == config.inverse_range_sigma {
+        nominal
+    } else {
+        cost_curve(&sa, &sb, offset, k_lo, k_hi, sigma, config)
+    };
     let valid = |j: usize| curve.overlap[j] >= min_overlap;
     let Some(best) = best_of(&curve) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
@@ -371,8 +377,8 @@ fn residual_sigma(a: &[Cell], b: &[Cell], shift: i64) -> Option<f32> {
 }
 
 fn cost_curve(
-    a: &[Cell],
-    b: &[Cell],
+    sa: &Signals,
+    sb: &Signals,
     offset: i64,
     k_lo: i64,
     k_hi: i64,
@@ -389,13 +395,13 @@ fn cost_curve(
     };
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
-    let (sa, sb) = (signals(a), signals(b));
+    let (a_len, b_len) = (sa.inv.len(), sb.inv.len());
     let mut xa = Vec::new();
     let mut xb = Vec::new();
     for (j, k) in (k_lo..=k_hi).enumerate() {
         let shift = offset + k;
         let i_lo = (-shift).max(0) as usize;
-        let i_hi = (b.len() as i64 - shift).clamp(0, a.len() as i64) as usize;
+        let i_hi = (b_len as i64 - shift).clamp(0, a_len as i64) as usize;
         if i_hi <= i_lo {
             continue;
         }
