@@ -83,16 +83,22 @@ pub struct EvalMapArgs {
 /// Refinement passes `build_map` reports progress for.
 const MAP_REFINE_PASSES: usize = pirouette::mapping::REFINE_PASSES;
 
-/// Profiles, sweeps and the map of a dataset.
-pub struct Mapped {
+/// Profiles and sweeps of a dataset, with what mapping needs of its camera.
+pub struct Profiled {
     /// The profiles and sweeps.
     pub run: SweepRun,
-    /// The map.
-    pub map: MapRun,
     /// The camera's blind distance, metres.
     pub blind_m: f64,
-    /// The settings used.
+    /// The mapping settings.
     pub config: MapConfig,
+}
+
+/// A mapped dataset.
+pub struct Mapped {
+    /// What the map was made of.
+    pub profiled: Profiled,
+    /// The map.
+    pub map: MapRun,
 }
 
 fn open_camera_dataset(path: &Path) -> Result<Dataset> {
@@ -105,8 +111,8 @@ fn open_camera_dataset(path: &Path) -> Result<Dataset> {
     super::open_dataset(path)
 }
 
-/// Maps a dataset with a progress bar per stage.
-pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
+/// Profiles every frame and assembles the sweeps, with a progress bar.
+pub fn profile_dataset(ds: &Dataset, options: &MapOptions) -> Result<Profiled> {
     let run = options.sweep.run_all(ds)?;
     let config = options.config(&run.config)?;
     let blind_m = run
@@ -114,22 +120,24 @@ pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
         .table()
         .blind_range()
         .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
+    Ok(Profiled { run, blind_m, config })
+}
+
+/// Maps a dataset with a progress bar per stage.
+pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
+    let profiled = profile_dataset(ds, options)?;
+    let run = &profiled.run;
     let bar = super::progress(run.sweeps.len() + MAP_REFINE_PASSES, "register");
     let map = build_map(
         &ds.manifest.frames,
         &run.rops,
         &run.sweeps,
-        blind_m,
-        &config,
+        profiled.blind_m,
+        &profiled.config,
         || bar.inc(1),
     )?;
     bar.finish_and_clear();
-    Ok(Mapped {
-        run,
-        map,
-        blind_m,
-        config,
-    })
+    Ok(Mapped { profiled, map })
 }
 
 /// Writes the map folder of a mapped dataset.
@@ -150,9 +158,10 @@ pub fn write_map(ds: &Dataset, mapped: &Mapped, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Evaluates the map folder `dir` of `ds` (made with `mapped`'s settings).
-pub fn evaluate(ds: &Dataset, mapped: &Mapped, dir: &Path, tolerance_cells: f64) -> Result<MapReport> {
-    let span_rad = mapped
+/// Evaluates the map folder `dir` of `ds`, made from `profiled` (whose
+/// profiles also make the true-pose map beside it).
+pub fn evaluate(ds: &Dataset, profiled: &Profiled, dir: &Path, tolerance_cells: f64) -> Result<MapReport> {
+    let span_rad = profiled
         .run
         .extractor
         .table()
@@ -162,10 +171,10 @@ pub fn evaluate(ds: &Dataset, mapped: &Mapped, dir: &Path, tolerance_cells: f64)
         ds,
         dir,
         MapInputs {
-            rops: &mapped.run.rops,
-            blind_m: mapped.blind_m,
+            rops: &profiled.run.rops,
+            blind_m: profiled.blind_m,
             span_rad,
-            grid: &mapped.config.grid,
+            grid: &profiled.config.grid,
         },
         tolerance_cells,
     )
@@ -223,8 +232,9 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
     }
     let ds = open_camera_dataset(&a.dataset)?;
     truth_in_map_frame(&ds)?;
-    let mapped = map_dataset(&ds, &a.options)?;
-    let r = evaluate(&ds, &mapped, &a.dir, a.tolerance_cells)?;
+    // Only the profiles are needed: the map and poses are read from DIR.
+    let profiled = profile_dataset(&ds, &a.options)?;
+    let r = evaluate(&ds, &profiled, &a.dir, a.tolerance_cells)?;
     if a.json {
         outln!("{}", serde_json::to_string(&r)?)?;
         return Ok(());
