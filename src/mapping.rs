@@ -229,11 +229,11 @@ const TURN_SHIFT_M: f64 = 0.002;
 /// (10°) to its current value, so a frame without anchors or links stays.
 /// Linear least squares; anchors more than three standard deviations from
 /// the solution are dropped and it is solved again.
-fn chain_headings(
+fn chain_headings<'f>(
     placed: &mut Placed,
     sweep: &DatasetSweep,
     rops: &[Rop],
-    field: &LikelihoodField,
+    field: impl Fn(usize) -> &'f LikelihoodField,
     config: &MapConfig,
 ) -> Result<()> {
     let n = sweep.frames.len();
@@ -256,7 +256,7 @@ fn chain_headings(
             sigma_left_m: TURN_SHIFT_M,
             sigma_theta_rad: anchor_window,
         };
-        let reg = register(field, &pts, &prior, &config.turn)?;
+        let reg = register(field(k), &pts, &prior, &config.turn)?;
         let sd = reg.covariance[(2, 2)].sqrt().max(sigma_ver);
         if reg.accepted && sd < anchor_window / 2.0 {
             anchors.push((
@@ -330,7 +330,7 @@ fn place_sweep(
         placed.pose = reg.pose;
         placed.covariance = reg.covariance;
         placed.registration = Some(reg);
-        chain_headings(placed, sweep, rops, field, config)?;
+        chain_headings(placed, sweep, rops, |_| field, config)?;
     }
     Ok(())
 }
@@ -347,8 +347,9 @@ fn place_sweep(
 /// centre from their turns (verified ones to a match's accuracy, fallbacks
 /// to a command's) and their own registrations. Then every sweep is placed
 /// again, twice, against the map of all the others, which corrects the
-/// first sweeps with what later ones saw. The map frame is set last: the
-/// first frame is `(0, 0, 0)`.
+/// first sweeps with what later ones saw; a single pirouette, with no
+/// others, anchors each frame's heading on the map of its other frames.
+/// The map frame is set last: the first frame is `(0, 0, 0)`.
 pub fn build_map(
     frames: &[FrameSpec],
     rops: &[Rop],
@@ -383,6 +384,25 @@ pub fn build_map(
 
     // Each sweep against the map of all the others.
     for _pass in 0..REFINE_PASSES {
+        if sweeps.len() == 1 {
+            // A single pirouette has no other sweep to be placed against:
+            // each frame's heading is anchored on the map of the sweep's
+            // other frames instead.
+            let sweep = &sweeps[0];
+            let n = sweep.frames.len();
+            let fields: Vec<LikelihoodField> = (0..n)
+                .map(|k| {
+                    let others: Vec<(usize, Pose2)> = (0..n)
+                        .filter(|&j| j != k)
+                        .map(|j| (sweep.frames[j], placed[0].frame_pose(j)))
+                        .collect();
+                    field_of(&others, rops, blind_m, config)
+                })
+                .collect::<Result<_>>()?;
+            chain_headings(&mut placed[0], sweep, rops, |k| &fields[k], config)?;
+            progress();
+            continue;
+        }
         for (s, sweep) in sweeps.iter().enumerate() {
             let others: Vec<(usize, Pose2)> = sweeps
                 .iter()

@@ -88,6 +88,22 @@ fn registered_sweeps_map_a_rendered_field_to_a_centimetre() {
 }
 
 #[test]
+fn a_single_pirouette_anchors_its_frames_on_each_other() {
+    // No other sweep to register against: the frames' headings come from
+    // the turns and from each frame against the map of the others.
+    let root = rendered("field-pirouette", 17);
+    let dir = tempfile::tempdir().unwrap();
+    let r = map_and_eval(&root, &dir.path().join("map"));
+    eprintln!("{r}");
+    assert!(
+        num(&r, &["trajectory", "heading_rmse_deg"]) <= 2.0,
+        "{}",
+        r["trajectory"]
+    );
+    assert!(num(&r, &["map", "f1"]) >= 0.85, "{}", r["map"]);
+}
+
+#[test]
 fn shared_datasets_map_far_better_than_the_commands() {
     let Some(shared) = shared("shared_datasets_map_far_better_than_the_commands") else {
         return;
