@@ -174,34 +174,115 @@ impl Placed {
     }
 }
 
-/// The likelihood field of the endpoints of `frames` (manifest index and
-/// pose) that the grid of the same frames holds occupied, with the grid's
-/// free floor.
+/// The grid of `frames` (manifest index and pose) and the endpoints they
+/// saw, map frame.
+fn grid_of(
+    frames: &[(usize, Pose2)],
+    rops: &[Rop],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Result<(OccupancyGrid, Vec<Point2>)> {
+    let mut grid = OccupancyGrid::new(config.grid.clone())?;
+    let mut points = Vec::new();
+    for &(i, pose) in frames {
+        add_frame(&mut grid, &mut points, &rops[i], pose, blind_m);
+    }
+    Ok((grid, points))
+}
+
+/// Inserts one frame into a grid and its endpoints into a point list.
+fn add_frame(grid: &mut OccupancyGrid, points: &mut Vec<Point2>, rop: &Rop, pose: Pose2, blind_m: f64) {
+    grid.insert_profile(&pose, rop, blind_m);
+    points.extend(endpoints(rop).into_iter().map(|p| pose.transform_point(p)));
+}
+
+/// The likelihood field of the endpoints that `grid` holds occupied, with
+/// the grid's free floor, within `region` (map-frame corners) if given.
+fn field_in(
+    grid: &OccupancyGrid,
+    points: &[Point2],
+    region: Option<(Point2, Point2)>,
+    config: &MapConfig,
+) -> LikelihoodField {
+    let r = &config.register;
+    let support: Vec<Point2> = points
+        .iter()
+        .copied()
+        .filter(|p| grid.probability_at(p.x, p.y) > r.occupied_threshold)
+        .collect();
+    match region {
+        Some((lo, hi)) => LikelihoodField::from_map_within(
+            &support,
+            grid,
+            lo,
+            hi,
+            r.free_threshold,
+            r.sigma_m,
+            r.epsilon,
+            r.epsilon_free,
+        ),
+        None => LikelihoodField::from_map(
+            &support,
+            grid,
+            r.free_threshold,
+            r.sigma_m,
+            r.epsilon,
+            r.epsilon_free,
+        ),
+    }
+}
+
+/// The likelihood field of the endpoints of `frames` that the grid of the
+/// same frames holds occupied, with the grid's free floor.
 fn field_of(
     frames: &[(usize, Pose2)],
     rops: &[Rop],
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<LikelihoodField> {
-    let mut grid = OccupancyGrid::new(config.grid.clone())?;
-    for (i, pose) in frames {
-        grid.insert_profile(pose, &rops[*i], blind_m);
-    }
-    let threshold = config.register.occupied_threshold;
-    let support: Vec<Point2> = frames
-        .iter()
-        .flat_map(|(i, pose)| endpoints(&rops[*i]).into_iter().map(|p| pose.transform_point(p)))
-        .filter(|p| grid.probability_at(p.x, p.y) > threshold)
-        .collect();
-    Ok(LikelihoodField::from_map(
-        &support,
-        &grid,
-        config.register.free_threshold,
-        config.register.sigma_m,
-        config.register.epsilon,
-        config.register.epsilon_free,
-    ))
+    let (grid, points) = grid_of(frames, rops, blind_m, config)?;
+    Ok(field_in(&grid, &points, None, config))
 }
+
+/// For each frame of sweep `placed`, the field of `others` (their grid and
+/// endpoints) plus the sweep's other frames, around the sweep's centre:
+/// what anchors that frame's heading.
+fn frame_fields(
+    placed: &Placed,
+    sweep: &DatasetSweep,
+    others: &(OccupancyGrid, Vec<Point2>),
+    rops: &[Rop],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Vec<LikelihoodField> {
+    let n = sweep.frames.len();
+    let c = placed.pose.translation();
+    // Endpoints lie within the soft limit; a frame turns about the centre.
+    let reach = rops[sweep.frames[0]].max_range_m as f64 + FRAME_FIELD_MARGIN_M;
+    let region = (
+        Point2::new(c.x - reach, c.y - reach),
+        Point2::new(c.x + reach, c.y + reach),
+    );
+    (0..n)
+        .map(|k| {
+            let (mut grid, mut points) = others.clone();
+            for j in (0..n).filter(|&j| j != k) {
+                add_frame(
+                    &mut grid,
+                    &mut points,
+                    &rops[sweep.frames[j]],
+                    placed.frame_pose(j),
+                    blind_m,
+                );
+            }
+            field_in(&grid, &points, Some(region), config)
+        })
+        .collect()
+}
+
+/// Margin of a frame's field beyond the soft limit around its sweep's
+/// centre, metres.
+const FRAME_FIELD_MARGIN_M: f64 = 0.2;
 
 /// Passes of every sweep against the map of the others.
 pub const REFINE_PASSES: usize = 2;
@@ -347,9 +428,10 @@ fn place_sweep(
 /// centre from their turns (verified ones to a match's accuracy, fallbacks
 /// to a command's) and their own registrations. Then every sweep is placed
 /// again, twice, against the map of all the others, which corrects the
-/// first sweeps with what later ones saw; a single pirouette, with no
-/// others, anchors each frame's heading on the map of its other frames.
-/// The map frame is set last: the first frame is `(0, 0, 0)`.
+/// first sweeps with what later ones saw, and each frame's heading is
+/// anchored on the map of everything but itself (for a single pirouette,
+/// its sweep's other frames). The map frame is set last: the first frame
+/// is `(0, 0, 0)`.
 pub fn build_map(
     frames: &[FrameSpec],
     rops: &[Rop],
@@ -384,25 +466,6 @@ pub fn build_map(
 
     // Each sweep against the map of all the others.
     for _pass in 0..REFINE_PASSES {
-        if sweeps.len() == 1 {
-            // A single pirouette has no other sweep to be placed against:
-            // each frame's heading is anchored on the map of the sweep's
-            // other frames instead.
-            let sweep = &sweeps[0];
-            let n = sweep.frames.len();
-            let fields: Vec<LikelihoodField> = (0..n)
-                .map(|k| {
-                    let others: Vec<(usize, Pose2)> = (0..n)
-                        .filter(|&j| j != k)
-                        .map(|j| (sweep.frames[j], placed[0].frame_pose(j)))
-                        .collect();
-                    field_of(&others, rops, blind_m, config)
-                })
-                .collect::<Result<_>>()?;
-            chain_headings(&mut placed[0], sweep, rops, |k| &fields[k], config)?;
-            progress();
-            continue;
-        }
         for (s, sweep) in sweeps.iter().enumerate() {
             let others: Vec<(usize, Pose2)> = sweeps
                 .iter()
@@ -413,16 +476,24 @@ pub fn build_map(
                     (0..other.frames.len()).map(move |k| (other.frames[k], p.frame_pose(k)))
                 })
                 .collect();
-            let field = field_of(&others, rops, blind_m, config)?;
-            // Every sweep may move, the first too (the map frame is set at
-            // the end), but only locally: the first pass found the basin.
-            let prior = PosePrior {
-                mean: placed[s].pose,
-                sigma_forward_m: REFINE_SHIFT_M,
-                sigma_left_m: REFINE_SHIFT_M,
-                sigma_theta_rad: config.sweep.commanded_sigma_rad,
-            };
-            place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
+            let others = grid_of(&others, rops, blind_m, config)?;
+            if sweeps.len() > 1 {
+                let field = field_in(&others.0, &others.1, None, config);
+                // Every sweep may move, the first too (the map frame is set
+                // at the end), but only locally: the first pass found the
+                // basin.
+                let prior = PosePrior {
+                    mean: placed[s].pose,
+                    sigma_forward_m: REFINE_SHIFT_M,
+                    sigma_left_m: REFINE_SHIFT_M,
+                    sigma_theta_rad: config.sweep.commanded_sigma_rad,
+                };
+                place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
+            }
+            // Each frame against the others and the rest of its own sweep
+            // (for a single pirouette, its own sweep alone).
+            let fields = frame_fields(&placed[s], sweep, &others, rops, blind_m, config);
+            chain_headings(&mut placed[s], sweep, rops, |k| &fields[k], config)?;
         }
         progress();
     }

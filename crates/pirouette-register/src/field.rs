@@ -62,7 +62,7 @@ impl LikelihoodField {
     /// points' sub-cell positions (a wall on a cell border does not move by
     /// half a cell).
     pub fn from_points(points: &[Point2], resolution_m: f64, sigma_m: f64, epsilon: f64) -> Self {
-        Self::build(points, None, resolution_m, sigma_m, epsilon, epsilon)
+        Self::build(points, None, None, resolution_m, sigma_m, epsilon, epsilon)
     }
 
     /// The field of obstacle points on the lattice of `grid`, whose cells
@@ -78,7 +78,35 @@ impl LikelihoodField {
         Self::build(
             points,
             Some((grid, free_threshold)),
+            None,
             grid.resolution_m(),
+            sigma_m,
+            epsilon,
+            epsilon_free,
+        )
+    }
+
+    /// As [`LikelihoodField::from_map`], only within the box from `lo` to
+    /// `hi` (map frame, metres): outside it every value is the floor. A
+    /// registration that only looks near one spot pays for that spot.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_map_within(
+        points: &[Point2],
+        grid: &OccupancyGrid,
+        lo: Point2,
+        hi: Point2,
+        free_threshold: f64,
+        sigma_m: f64,
+        epsilon: f64,
+        epsilon_free: f64,
+    ) -> Self {
+        let s = grid.resolution_m();
+        let cell = |p: Point2| ((p.x / s).floor() as i64, (p.y / s).floor() as i64);
+        Self::build(
+            points,
+            Some((grid, free_threshold)),
+            Some((cell(lo), cell(hi))),
+            s,
             sigma_m,
             epsilon,
             epsilon_free,
@@ -88,17 +116,13 @@ impl LikelihoodField {
     fn build(
         points: &[Point2],
         free_space: Option<(&OccupancyGrid, f64)>,
+        region: Option<((i64, i64), (i64, i64))>,
         resolution_m: f64,
         sigma_m: f64,
         epsilon: f64,
         epsilon_free: f64,
     ) -> Self {
         let floor = epsilon.ln() as f32;
-        let points: Vec<Point2> = points
-            .iter()
-            .copied()
-            .filter(|p| p.x.is_finite() && p.y.is_finite())
-            .collect();
         // Beyond 3σ the Gaussian adds less than 1.2 % to the floor.
         let reach = (3.0 * sigma_m / resolution_m).ceil() as i64 + 1;
         let cell = |p: &Point2| {
@@ -107,6 +131,18 @@ impl LikelihoodField {
                 (p.y / resolution_m).floor() as i64,
             )
         };
+        // Points that can reach the region.
+        let near_region = |p: &Point2| {
+            region.is_none_or(|(lo, hi)| {
+                let (i, j) = cell(p);
+                i >= lo.0 - reach && i <= hi.0 + reach && j >= lo.1 - reach && j <= hi.1 + reach
+            })
+        };
+        let points: Vec<Point2> = points
+            .iter()
+            .copied()
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && near_region(p))
+            .collect();
         let mut tree: KdTree<f64, 2> = KdTree::with_capacity(points.len().max(1));
         for (k, p) in points.iter().enumerate() {
             tree.add(&[p.x, p.y], k as u64);
@@ -131,6 +167,13 @@ impl LikelihoodField {
                 grow((i, j), (i + w as i64 - 1, j + h as i64 - 1));
             }
         }
+        let extent = match (extent, region) {
+            (Some((a, b)), Some((lo, hi))) => {
+                let (a, b) = ((a.0.max(lo.0), a.1.max(lo.1)), (b.0.min(hi.0), b.1.min(hi.1)));
+                (a.0 <= b.0 && a.1 <= b.1).then_some((a, b))
+            }
+            (e, _) => e,
+        };
         let Some((min_cell, max_cell)) = extent else {
             return Self {
                 tree,
@@ -150,17 +193,20 @@ impl LikelihoodField {
         let width = (max_cell.0 - min_cell.0 + 1) as usize;
         let height = (max_cell.1 - min_cell.1 + 1) as usize;
         // Squared distance from each cell centre to the nearest point, exact
-        // within `reach` cells: every point stamps its neighbourhood.
+        // within `reach` cells: every point stamps its neighbourhood (as far
+        // as the lattice goes).
         let mut d2 = vec![f64::INFINITY; width * height];
         for p in &points {
             let (i, j) = cell(p);
             let (ci, cj) = (i - min_cell.0, j - min_cell.1);
-            for dj in -reach..=reach {
-                let ddy = ((j + dj) as f64 + 0.5) * resolution_m - p.y;
-                let row = (cj + dj) as usize * width;
-                for di in -reach..=reach {
-                    let ddx = ((i + di) as f64 + 0.5) * resolution_m - p.x;
-                    let k = row + (ci + di) as usize;
+            let (i_lo, i_hi) = ((ci - reach).max(0), (ci + reach).min(width as i64 - 1));
+            let (j_lo, j_hi) = ((cj - reach).max(0), (cj + reach).min(height as i64 - 1));
+            for y in j_lo..=j_hi {
+                let ddy = ((min_cell.1 + y) as f64 + 0.5) * resolution_m - p.y;
+                let row = y as usize * width;
+                for x in i_lo..=i_hi {
+                    let ddx = ((min_cell.0 + x) as f64 + 0.5) * resolution_m - p.x;
+                    let k = row + x as usize;
                     d2[k] = d2[k].min(ddx * ddx + ddy * ddy);
                 }
             }
@@ -313,6 +359,30 @@ mod tests {
         assert!(f.exact(Point2::new(0.5, 0.0)) > -0.01);
         // The lattice agrees at cell centres.
         assert!((f.cell(30, 0) as f64 - f.exact(Point2::new(0.305, 0.005))).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_field_within_a_region_matches_the_whole_field_there() {
+        use pirouette_grid::{GridConfig, OccupancyGrid, FREE_THRESH};
+        let grid = OccupancyGrid::new(GridConfig::default()).unwrap();
+        let wall: Vec<Point2> = (0..300).map(|k| Point2::new(k as f64 * 0.01, 0.5)).collect();
+        let whole = LikelihoodField::from_map(&wall, &grid, FREE_THRESH, 0.015, 0.2, 0.02);
+        let part = LikelihoodField::from_map_within(
+            &wall,
+            &grid,
+            Point2::new(1.0, 0.0),
+            Point2::new(2.0, 1.0),
+            FREE_THRESH,
+            0.015,
+            0.2,
+            0.02,
+        );
+        for (i, j) in [(100, 50), (150, 49), (199, 51), (120, 47)] {
+            assert_eq!(part.cell(i, j), whole.cell(i, j), "({i}, {j})");
+        }
+        assert_eq!(part.cell(50, 50), part.floor(), "outside the region");
+        let p = Point2::new(1.5, 0.51);
+        assert!((part.exact(p) - whole.exact(p)).abs() < 1e-12);
     }
 
     #[test]
