@@ -83,9 +83,7 @@ impl Obstacle {
             } => {
                 let (s, c) = yaw_deg.to_radians().sin_cos();
                 // Into the box's own frame.
-                let ox = origin[0] - center[0];
-                let oy = origin[1] - center[1];
-                let lo = [c * ox + s * oy, -s * ox + c * oy];
+                let lo = box_local(center, yaw_deg, origin);
                 let ld = [c * dir[0] + s * dir[1], -s * dir[0] + c * dir[1]];
                 let half = [size[0] / 2.0, size[1] / 2.0];
                 let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -164,10 +162,9 @@ impl Obstacle {
                 yaw_deg,
                 ..
             } => {
-                let (s, c) = yaw_deg.to_radians().sin_cos();
-                let (ox, oy) = (p[0] - center[0], p[1] - center[1]);
-                let dx = (c * ox + s * oy).abs() - size[0] / 2.0;
-                let dy = (-s * ox + c * oy).abs() - size[1] / 2.0;
+                let local = box_local(center, yaw_deg, p);
+                let dx = local[0].abs() - size[0] / 2.0;
+                let dy = local[1].abs() - size[1] / 2.0;
                 if dx > 0.0 || dy > 0.0 {
                     dx.max(0.0).hypot(dy.max(0.0))
                 } else {
@@ -209,6 +206,14 @@ impl Obstacle {
         };
         (!ok).then(|| "obstacle with a non-finite or non-positive size".to_string())
     }
+}
+
+/// A floor point in the frame of a box centred at `center`, turned by
+/// `yaw_deg`.
+fn box_local(center: [f64; 2], yaw_deg: f64, p: [f64; 2]) -> [f64; 2] {
+    let (s, c) = yaw_deg.to_radians().sin_cos();
+    let (ox, oy) = (p[0] - center[0], p[1] - center[1]);
+    [c * ox + s * oy, -s * ox + c * oy]
 }
 
 impl World {
