@@ -1,5 +1,6 @@
 //! Image → boundaries → ROP.
 
+use crate::scan::{smoothed, Candidate, Candidates, Classifier, FloorTrack, Lanes, SQRT_3};
 use crate::ColumnBoundary;
 use pirouette_camera::{CameraModel, FloorTable};
 use pirouette_profile::filter::{self, OutlierFilter};
@@ -127,6 +128,8 @@ pub struct RopExtractor {
     run_rows: Vec<u16>,
     /// Per column: the topmost floor row, or `height` when none.
     top_floor: Vec<u32>,
+    /// Column indices, highest topmost floor row first.
+    columns_by_top: Vec<u32>,
     /// The floor view's bearing span.
     view_rad: (f64, f64),
 }
@@ -145,105 +148,6 @@ struct BoundaryPoint {
 /// Rows of the seed at the bottom of each column.
 const SEED_ROWS: u32 = 6;
 
-/// Decides whether a pixel is floor, given the floor colour predicted there.
-#[derive(Debug, Clone, Copy)]
-struct Classifier {
-    /// Noise threshold, 8-bit levels (a multiple of the image's σ).
-    noise: f32,
-    brightness_step: f32,
-    chroma_step: f32,
-}
-
-impl Classifier {
-    /// Floor when the brightness step and the chromaticity change, each
-    /// relative to its own tolerance (widened to the noise), lie inside the
-    /// unit ellipse: `(Δb/τ_b)² + max_c (Δc/τ_c)² ≤ 1`. A surface that
-    /// differs a little in both brightness and hue is caught, while a
-    /// larger change of brightness alone (shading, tonal patches) is not.
-    #[inline]
-    fn is_floor(&self, p: &[f32; 3], q: &[f32; 3]) -> bool {
-        let sum_p = p[0] + p[1] + p[2];
-        let sum_q = (q[0] + q[1] + q[2]).max(0.0);
-        let db = sum_p - sum_q;
-        let tb = (self.brightness_step * sum_q).max(self.noise * SQRT_3);
-        let tb2 = tb * tb;
-        if db * db > tb2 {
-            return false;
-        }
-        // Room left inside the ellipse for the chromaticity term.
-        let room = 1.0 - db * db / tb2;
-        let b = if sum_q > 0.0 { sum_p / sum_q } else { 1.0 };
-        (0..3).all(|c| {
-            let expect = b * q[c];
-            let e = p[c] - expect;
-            let t = (self.chroma_step * expect).max(self.noise);
-            e * e <= room * t * t
-        })
-    }
-}
-
-const SQRT_3: f32 = 1.732_050_8;
-
-/// The floor's colour followed up a column: a level and a trend per row
-/// (Holt's linear smoothing), so a floor that brightens steadily upwards
-/// is predicted without lag.
-#[derive(Debug, Clone, Copy)]
-struct FloorTrack {
-    level: [f32; 3],
-    trend: [f32; 3],
-}
-
-impl FloorTrack {
-    /// A least-squares line through the seed rows (bottom first); the level
-    /// is the line's value at the last (topmost) seed row.
-    fn seed(rows: &[[f32; 3]]) -> Self {
-        let k = rows.len() as f32;
-        let mean_x = (k - 1.0) / 2.0;
-        let var_x: f32 = (0..rows.len())
-            .map(|i| (i as f32 - mean_x).powi(2))
-            .sum::<f32>()
-            .max(1e-6);
-        let mut level = [0f32; 3];
-        let mut trend = [0f32; 3];
-        for c in 0..3 {
-            let mean_y = rows.iter().map(|p| p[c]).sum::<f32>() / k;
-            let cov: f32 = rows
-                .iter()
-                .enumerate()
-                .map(|(i, p)| (i as f32 - mean_x) * (p[c] - mean_y))
-                .sum();
-            trend[c] = if rows.len() > 1 { cov / var_x } else { 0.0 };
-            level[c] = mean_y + trend[c] * (k - 1.0 - mean_x);
-        }
-        Self { level, trend }
-    }
-
-    /// The floor colour expected at the next row up.
-    fn predict(&self) -> [f32; 3] {
-        [
-            self.level[0] + self.trend[0],
-            self.level[1] + self.trend[1],
-            self.level[2] + self.trend[2],
-        ]
-    }
-
-    /// Takes in a floor pixel.
-    fn update(&mut self, p: &[f32; 3], rate: f32, trend_rate: f32) {
-        for ((level, trend), &x) in self.level.iter_mut().zip(&mut self.trend).zip(p) {
-            let pred = *level + *trend;
-            let new_level = pred + rate * (x - pred);
-            *trend += trend_rate * (new_level - *level - *trend);
-            *level = new_level;
-        }
-    }
-
-    /// Steps over a pixel that is not floor.
-    fn coast(&mut self) {
-        for c in 0..3 {
-            self.level[c] += self.trend[c];
-        }
-    }
-}
 /// Rows each side of a boundary used to measure floor and obstacle levels.
 const LEVEL_OFFSET: u32 = 3;
 
@@ -285,9 +189,11 @@ impl RopExtractor {
                 run_rows[(v * width + u) as usize] = rows.min(u16::MAX as f64).round() as u16;
             }
         }
-        let top_floor = (0..width)
+        let top_floor: Vec<u32> = (0..width)
             .map(|u| table.top_floor_row(u).unwrap_or(height))
             .collect();
+        let mut columns_by_top: Vec<u32> = (0..width).collect();
+        columns_by_top.sort_by_key(|&u| std::cmp::Reverse(top_floor[u as usize]));
         let view_rad = table.bearing_span().unwrap_or((0.0, 0.0));
         Ok(Self {
             table,
@@ -297,6 +203,7 @@ impl RopExtractor {
             config,
             run_rows,
             top_floor,
+            columns_by_top,
             view_rad,
         })
     }
@@ -328,7 +235,7 @@ impl RopExtractor {
         self.check_size(img)?;
         let px = img.as_raw();
         let sigma = noise_sigma(px, self.width, self.height);
-        Ok((0..self.width).map(|u| self.scan_column(px, u, sigma)).collect())
+        Ok(self.scan(px, sigma))
     }
 
     /// The profile of an image: boundaries through the floor table into
@@ -438,69 +345,127 @@ impl RopExtractor {
         mask
     }
 
-    fn scan_column(&self, px: &[u8], u: u32, sigma: f32) -> ColumnBoundary {
-        let (m, n) = (self.width, self.height);
-        let top = self.top_floor[u as usize];
-        if top >= n {
-            return ColumnBoundary::NoFloor;
-        }
-        let pix = |v: u32| smoothed(px, m, u, v);
-        let seed_rows = SEED_ROWS.min(n - top);
-        let mut seed = [[0f32; 3]; SEED_ROWS as usize];
-        for (slot, v) in seed.iter_mut().zip((n - seed_rows..n).rev()) {
-            *slot = pix(v);
-        }
-        let mut floor = FloorTrack::seed(&seed[..seed_rows as usize]);
-        if seed_rows == n - top {
-            return ColumnBoundary::Clear { top_row: top };
-        }
+    /// Scans every column from the bottom up, all columns one row at a
+    /// time (see [`crate::scan`]).
+    fn scan(&self, px: &[u8], sigma: f32) -> Vec<ColumnBoundary> {
+        let (m, n) = (self.width as usize, self.height);
+        let mut out = vec![ColumnBoundary::NoFloor; m];
+        let mut lanes = Lanes::new(m);
         let classifier = Classifier {
             noise: self.config.noise_sigmas * sigma,
             brightness_step: self.config.min_brightness_step,
             chroma_step: self.config.min_chroma_step,
         };
-        let is_floor = |p: &[f32; 3], pred: &[f32; 3]| classifier.is_floor(p, pred);
-        let (rate, trend_rate) = (self.config.adapt_rate, self.config.trend_rate);
-        let mut v = n - seed_rows - 1;
-        loop {
-            let p = pix(v);
-            let pred = floor.predict();
-
-            if is_floor(&p, &pred) {
-                floor.update(&p, rate, trend_rate);
+        // Seed each column from its own bottom rows.
+        for (u, (slot, &top)) in out.iter_mut().zip(&self.top_floor).enumerate() {
+            if top >= n {
+                continue;
+            }
+            let seed_rows = SEED_ROWS.min(n - top);
+            let mut seed = [[0f32; 3]; SEED_ROWS as usize];
+            for (s, v) in seed.iter_mut().zip((n - seed_rows..n).rev()) {
+                *s = smoothed(px, self.width, u as u32, v);
+            }
+            if seed_rows == n - top {
+                *slot = ColumnBoundary::Clear { top_row: top };
             } else {
-                // A candidate: is the run above as tall as an obstacle would
-                // be? The floor reference goes on following floor pixels
-                // inside the run, as the scan itself would.
-                let run = self.run_rows[(v * m + u) as usize].max(1) as u32;
-                let lo = (v + 1).saturating_sub(run);
-                let span = v - lo + 1;
-                let mut ahead = floor;
-                let mut off = 0u32;
-                for w in (lo..=v).rev() {
-                    let q = pix(w);
-                    if is_floor(&q, &ahead.predict()) {
-                        ahead.update(&q, rate, trend_rate);
+                lanes.start(u, FloorTrack::seed(&seed[..seed_rows as usize]));
+            }
+        }
+        // Every scanned column has more floor than its seed, so all start
+        // at the row above a full seed.
+        let Some(mut cols) = alive_span(&lanes, 0..m) else {
+            return out;
+        };
+        let (rate, trend_rate) = (self.config.adapt_rate, self.config.trend_rate);
+        let mut ends = self.columns_by_top.iter().peekable();
+        // Candidate obstacle bases whose runs are still being scanned.
+        let mut candidates = Candidates::new(m, n as usize);
+        // Columns scanned past their topmost floor row only to finish a run.
+        let mut past_top = vec![false; m];
+        let mut v = n - SEED_ROWS - 1;
+        loop {
+            lanes.classify(px, v as usize, &classifier, cols.clone());
+            for u in lanes.off_columns(cols.clone()) {
+                if past_top[u] {
+                    continue;
+                }
+                let run = self.run_rows[v as usize * m + u].max(1) as u32;
+                candidates.push(
+                    u,
+                    Candidate {
+                        row: v,
+                        lo: (v + 1).saturating_sub(run),
+                        // This row is one of the column's rows not floor.
+                        off_before: lanes.off_rows(u) - 1,
+                        floor: lanes.track(u).predict(),
+                    },
+                );
+            }
+            // Decide the candidates whose runs end here, in scan order: the
+            // first that is an obstacle ends the column.
+            for u in candidates.complete_row(v as usize, |u| lanes.off_rows(u)) {
+                while let Some((c, off)) = candidates.decidable(u) {
+                    if let Some(b) = self.decide(px, u as u32, &c, off, &classifier) {
+                        out[u] = b;
+                        lanes.stop(u);
+                        candidates.clear(u);
+                        break;
+                    }
+                    candidates.pop(u);
+                }
+                if lanes.is_alive(u) && past_top[u] && candidates.is_empty(u) {
+                    out[u] = ColumnBoundary::Clear {
+                        top_row: self.top_floor[u],
+                    };
+                    lanes.stop(u);
+                }
+            }
+            lanes.follow(rate, trend_rate, cols.clone());
+            // Columns whose floor ends at this row see nothing, once their
+            // candidates are decided.
+            while let Some(&&u) = ends.peek() {
+                if self.top_floor[u as usize] < v {
+                    break;
+                }
+                ends.next();
+                let u = u as usize;
+                if lanes.is_alive(u) {
+                    if candidates.is_empty(u) {
+                        out[u] = ColumnBoundary::Clear { top_row: v };
+                        lanes.stop(u);
                     } else {
-                        ahead.coast();
-                        off += 1;
+                        past_top[u] = true;
                     }
                 }
-                // The column itself, not just its neighbours averaged into
-                // it, must show the obstacle: beside an obstacle's side edge
-                // a third of an obstacle pixel is enough to trip the test.
-                if off as f32 >= self.config.run_fraction * span as f32
-                    && self.column_confirms(px, u, v, &pred, &classifier)
-                {
-                    return self.refine(px, u, v, pred);
-                }
-                floor.coast();
             }
-            if v == top {
-                return ColumnBoundary::Clear { top_row: top };
+            match alive_span(&lanes, cols) {
+                Some(next) if v > 0 => cols = next,
+                _ => return out,
             }
             v -= 1;
         }
+    }
+
+    /// Whether a candidate whose run has been scanned, `off` of its rows
+    /// not floor, is the base of an obstacle, and if so the boundary: the
+    /// run above it must be as tall as an obstacle would be there, and the
+    /// column itself must show it.
+    fn decide(
+        &self,
+        px: &[u8],
+        u: u32,
+        c: &Candidate,
+        off: u32,
+        classifier: &Classifier,
+    ) -> Option<ColumnBoundary> {
+        let span = c.row - c.lo + 1;
+        // The column itself, not just its neighbours averaged into it, must
+        // show the obstacle: beside an obstacle's side edge a third of an
+        // obstacle pixel is enough to trip the test.
+        (off as f32 >= self.config.run_fraction * span as f32
+            && self.column_confirms(px, u, c.row, &c.floor, classifier))
+        .then(|| self.refine(px, u, c.row, c.floor))
     }
 
     /// Whether the raw pixels of column `u` just above row `v` (two of the
@@ -566,6 +531,14 @@ impl RopExtractor {
     }
 }
 
+/// The span from the first to the last alive column within `cols`, `None`
+/// when none is.
+fn alive_span(lanes: &Lanes, cols: std::ops::Range<usize>) -> Option<std::ops::Range<usize>> {
+    let first = cols.clone().find(|&u| lanes.is_alive(u))?;
+    let last = cols.rev().find(|&u| lanes.is_alive(u))?;
+    Some(first..last + 1)
+}
+
 /// The mean of some colours, `None` when there are none.
 fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     let (mut s, mut k) = ([0f32; 3], 0);
@@ -576,18 +549,6 @@ fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
         k += 1;
     }
     (k > 0).then(|| s.map(|x| x / k as f32))
-}
-
-/// The pixel at `(u, v)` averaged with its left and right neighbours.
-#[inline(always)]
-fn smoothed(px: &[u8], width: u32, u: u32, v: u32) -> [f32; 3] {
-    let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
-    let l = u.saturating_sub(1) as usize * 3;
-    let c = u as usize * 3;
-    let r = (u + 1).min(width - 1) as usize * 3;
-    let (l, c, r) = (&row[l..l + 3], &row[c..c + 3], &row[r..r + 3]);
-    let sum = |k: usize| (l[k] as u16 + c[k] as u16 + r[k] as u16) as f32 * (1.0 / 3.0);
-    [sum(0), sum(1), sum(2)]
 }
 
 /// Standard deviation of the noise of a 3-pixel average along the scan
@@ -645,6 +606,64 @@ mod tests {
             let val = 30.0 + a * (220.0 - 30.0);
             image::Rgb([val as u8, val as u8, val as u8])
         })
+    }
+
+    /// Columns are scanned side by side in blocks; each must find its own
+    /// edge, whatever its neighbours do and however the width splits into
+    /// blocks.
+    #[test]
+    fn every_column_finds_its_own_edge() {
+        for width in [320u32, 37, 9] {
+            let c = PinholeModel {
+                width,
+                cx: (width as f64 - 1.0) / 2.0,
+                ..cam()
+            };
+            // A staircase of walls three columns wide: group g = u/3 has
+            // its edge at row 40 + 9 (g mod 7), groups g mod 7 = 6 see floor
+            // only.
+            let edge = |u: u32| {
+                let g = u / 3 % 7;
+                (g != 6).then(|| 40.0 + 9.0 * g as f32)
+            };
+            let img = image::RgbImage::from_fn(width, 240, |u, v| match edge(u) {
+                Some(e) if (v as f32) < e => image::Rgb([220, 220, 220]),
+                _ => image::Rgb([30, 30, 30]),
+            });
+            let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+            let b = ex.boundaries(&img).unwrap();
+            assert_eq!(b.len(), width as usize);
+            let mut checked = 0;
+            for (u, col) in b.iter().enumerate() {
+                let u = u as u32;
+                // The smoothing across three columns blurs a column whose
+                // neighbour's wall stands on another row: checked are the
+                // others.
+                let neighbours_agree = [u.saturating_sub(1), (u + 1).min(width - 1)]
+                    .iter()
+                    .all(|&w| edge(w) == edge(u));
+                if !neighbours_agree {
+                    continue;
+                }
+                checked += 1;
+                match (edge(u), *col) {
+                    (Some(e), ColumnBoundary::Obstacle { row, .. }) => {
+                        assert!(
+                            (row - (e - 0.5)).abs() < 0.05,
+                            "width {width} column {u}: {row} vs {e}"
+                        )
+                    }
+                    (None, ColumnBoundary::Clear { top_row }) => {
+                        assert_eq!(top_row, ex.top_floor[u as usize])
+                    }
+                    (e, found) => panic!("width {width} column {u}: edge {e:?}, found {found:?}"),
+                }
+            }
+            assert!(
+                checked >= width as usize / 3,
+                "width {width}: {checked} columns checked"
+            );
+        }
     }
 
     #[test]

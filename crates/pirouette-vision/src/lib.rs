@@ -32,6 +32,7 @@
 
 mod boundary;
 mod extract;
+mod scan;
 
 pub use boundary::ColumnBoundary;
 pub use extract::{RopExtractor, VisionConfig, VisionError};

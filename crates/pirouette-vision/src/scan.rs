@@ -1,0 +1,422 @@
+//! The floor model and the column-wise state the boundary scan follows.
+//!
+//! Every column follows its own floor up from the bottom of the image, but
+//! all columns move up one row at a time together: the floor tracks of all
+//! columns are held column-wise ([`Lanes`]), so classifying a row and
+//! following the floor are loops over columns without branches, which the
+//! compiler vectorises. Only the few pixels that leave the floor are looked
+//! at one by one.
+
+// The loops over a block's lanes index several arrays in step; indices say
+// that more plainly than zipped iterators.
+#![allow(clippy::needless_range_loop)]
+
+/// Decides whether a pixel is floor, given the floor colour predicted there.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Classifier {
+    /// Noise threshold, 8-bit levels (a multiple of the image's σ).
+    pub noise: f32,
+    pub brightness_step: f32,
+    pub chroma_step: f32,
+}
+
+pub(crate) const SQRT_3: f32 = 1.732_050_8;
+
+impl Classifier {
+    /// Floor when the brightness step and the chromaticity change, each
+    /// relative to its own tolerance (widened to the noise), lie inside the
+    /// unit ellipse: `(Δb/τ_b)² + max_c (Δc/τ_c)² ≤ 1`. A surface that
+    /// differs a little in both brightness and hue is caught, while a
+    /// larger change of brightness alone (shading, tonal patches) is not.
+    ///
+    /// Written without branches, so that a loop over columns vectorises.
+    #[inline(always)]
+    pub fn is_floor(&self, p: &[f32; 3], q: &[f32; 3]) -> bool {
+        self.floor_mask(p, q) != 0
+    }
+
+    /// [`Classifier::is_floor`] as 1 or 0, computed without branches so
+    /// that a loop over columns vectorises.
+    #[inline(always)]
+    pub fn floor_mask(&self, p: &[f32; 3], q: &[f32; 3]) -> u32 {
+        let sum_p = p[0] + p[1] + p[2];
+        let sum_q = max0(q[0] + q[1] + q[2], 0.0);
+        let db = sum_p - sum_q;
+        let tb = max0(self.brightness_step * sum_q, self.noise * SQRT_3);
+        let tb2 = tb * tb;
+        let inside = (db * db <= tb2) as u32;
+        // Room left inside the ellipse for the chromaticity term.
+        let room = 1.0 - db * db / tb2;
+        let b = if sum_q > 0.0 { sum_p / sum_q } else { 1.0 };
+        let channel = |c: usize| {
+            let expect = b * q[c];
+            let e = p[c] - expect;
+            let t = max0(self.chroma_step * expect, self.noise);
+            (e * e <= room * t * t) as u32
+        };
+        inside & channel(0) & channel(1) & channel(2)
+    }
+}
+
+/// The larger of `a` and `b`, `b` when `a` is NaN: `f32::max` for the
+/// values met here (`b` is never NaN), in a form that compiles to a single
+/// vector instruction.
+#[inline(always)]
+fn max0(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The floor's colour followed up a column: a level and a trend per row
+/// (Holt's linear smoothing), so a floor that brightens steadily upwards
+/// is predicted without lag.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct FloorTrack {
+    pub level: [f32; 3],
+    pub trend: [f32; 3],
+}
+
+impl FloorTrack {
+    /// A least-squares line through the seed rows (bottom first); the level
+    /// is the line's value at the last (topmost) seed row.
+    pub fn seed(rows: &[[f32; 3]]) -> Self {
+        let k = rows.len() as f32;
+        let mean_x = (k - 1.0) / 2.0;
+        let var_x: f32 = (0..rows.len())
+            .map(|i| (i as f32 - mean_x).powi(2))
+            .sum::<f32>()
+            .max(1e-6);
+        let mut level = [0f32; 3];
+        let mut trend = [0f32; 3];
+        for c in 0..3 {
+            let mean_y = rows.iter().map(|p| p[c]).sum::<f32>() / k;
+            let cov: f32 = rows
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i as f32 - mean_x) * (p[c] - mean_y))
+                .sum();
+            trend[c] = if rows.len() > 1 { cov / var_x } else { 0.0 };
+            level[c] = mean_y + trend[c] * (k - 1.0 - mean_x);
+        }
+        Self { level, trend }
+    }
+
+    /// The floor colour expected at the next row up.
+    pub fn predict(&self) -> [f32; 3] {
+        [
+            self.level[0] + self.trend[0],
+            self.level[1] + self.trend[1],
+            self.level[2] + self.trend[2],
+        ]
+    }
+}
+
+/// The pixel at `(u, v)` averaged with its left and right neighbours.
+#[inline(always)]
+pub(crate) fn smoothed(px: &[u8], width: u32, u: u32, v: u32) -> [f32; 3] {
+    let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
+    let l = u.saturating_sub(1) as usize * 3;
+    let c = u as usize * 3;
+    let r = (u + 1).min(width - 1) as usize * 3;
+    let (l, c, r) = (&row[l..l + 3], &row[c..c + 3], &row[r..r + 3]);
+    let sum = |k: usize| (l[k] as u16 + c[k] as u16 + r[k] as u16) as f32 * (1.0 / 3.0);
+    [sum(0), sum(1), sum(2)]
+}
+
+/// Columns per block of [`Lanes`]: eight `f32` fill one AVX register.
+const BLOCK: usize = 8;
+
+/// Eight columns' floor tracks and current pixels, one array per channel.
+#[derive(Debug, Clone, Copy, Default)]
+struct Block {
+    level: [[f32; BLOCK]; 3],
+    trend: [[f32; BLOCK]; 3],
+    /// The current row, each pixel averaged with its left and right
+    /// neighbours (as [`smoothed`]).
+    pixel: [[f32; BLOCK]; 3],
+    /// 1 where a column is still being scanned.
+    alive: [u8; BLOCK],
+    /// 1 where an alive column's pixel in the current row is not floor.
+    off: [u8; BLOCK],
+    /// Rows found not floor so far, the current one included.
+    off_rows: [u32; BLOCK],
+}
+
+/// The floor tracks of every column and the row they are looking at, in
+/// blocks of eight columns held channel by channel, so that the loops over
+/// a block's columns compile to vector instructions.
+#[derive(Debug, Clone)]
+pub(crate) struct Lanes {
+    width: usize,
+    blocks: Vec<Block>,
+    /// The current image row with each edge pixel repeated once outside
+    /// it and zeros to fill the last block, as 8-bit RGB.
+    row: Vec<u8>,
+}
+
+impl Lanes {
+    pub fn new(width: usize) -> Self {
+        let blocks = width.div_ceil(BLOCK);
+        Self {
+            width,
+            blocks: vec![Block::default(); blocks],
+            row: vec![0; (blocks * BLOCK + 2) * 3],
+        }
+    }
+
+    /// Starts scanning column `u` from `track`.
+    pub fn start(&mut self, u: usize, track: FloorTrack) {
+        let (b, i) = (u / BLOCK, u % BLOCK);
+        let block = &mut self.blocks[b];
+        for c in 0..3 {
+            block.level[c][i] = track.level[c];
+            block.trend[c][i] = track.trend[c];
+        }
+        block.alive[i] = 1;
+    }
+
+    /// Stops scanning column `u`.
+    pub fn stop(&mut self, u: usize) {
+        self.blocks[u / BLOCK].alive[u % BLOCK] = 0;
+    }
+
+    pub fn is_alive(&self, u: usize) -> bool {
+        self.blocks[u / BLOCK].alive[u % BLOCK] != 0
+    }
+
+    /// Rows of column `u` found not floor so far, the row last classified
+    /// included.
+    pub fn off_rows(&self, u: usize) -> u32 {
+        self.blocks[u / BLOCK].off_rows[u % BLOCK]
+    }
+
+    /// Column `u`'s floor track.
+    pub fn track(&self, u: usize) -> FloorTrack {
+        let (block, i) = (&self.blocks[u / BLOCK], u % BLOCK);
+        FloorTrack {
+            level: [block.level[0][i], block.level[1][i], block.level[2][i]],
+            trend: [block.trend[0][i], block.trend[1][i], block.trend[2][i]],
+        }
+    }
+
+    /// The blocks holding columns `cols`.
+    fn block_span(cols: &std::ops::Range<usize>) -> std::ops::Range<usize> {
+        cols.start / BLOCK..cols.end.div_ceil(BLOCK)
+    }
+
+    /// Loads row `v` of the interleaved RGB image `px` and classifies it
+    /// against each column's predicted floor, over the blocks holding
+    /// `cols`; afterwards [`Lanes::off_columns`] lists the alive columns
+    /// whose pixel is not floor.
+    pub fn classify(&mut self, px: &[u8], v: usize, classifier: &Classifier, cols: std::ops::Range<usize>) {
+        let m = self.width;
+        let src = &px[v * m * 3..(v + 1) * m * 3];
+        self.row[3..3 + m * 3].copy_from_slice(src);
+        self.row.copy_within(3..6, 0);
+        self.row.copy_within(m * 3..m * 3 + 3, m * 3 + 3);
+        let span = Self::block_span(&cols);
+        classify_blocks(
+            &mut self.blocks[span.clone()],
+            &self.row[span.start * BLOCK * 3..],
+            classifier,
+        );
+    }
+
+    /// The columns in `cols` that [`Lanes::classify`] found alive and not
+    /// floor, left to right.
+    pub fn off_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
+        let span = Self::block_span(&cols);
+        let first = span.start;
+        self.blocks[span]
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| u64::from_ne_bytes(b.off) != 0)
+            .flat_map(move |(k, b)| {
+                (0..BLOCK)
+                    .filter(move |&i| b.off[i] != 0)
+                    .map(move |i| (first + k) * BLOCK + i)
+            })
+    }
+
+    /// Follows the floor over the blocks holding `cols`: columns whose
+    /// pixel was floor take it in, the others coast along their trend.
+    pub fn follow(&mut self, rate: f32, trend_rate: f32, cols: std::ops::Range<usize>) {
+        let span = Self::block_span(&cols);
+        follow_blocks(&mut self.blocks[span], rate, trend_rate);
+    }
+}
+
+/// Fills each block's pixels from `row` (the padded row from the blocks'
+/// first column on) and marks its alive columns that are not floor.
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
+fn classify_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier) {
+    for (block, bytes) in blocks
+        .iter_mut()
+        .zip(row.windows((BLOCK + 2) * 3).step_by(BLOCK * 3))
+    {
+        if u64::from_ne_bytes(block.alive) == 0 {
+            block.off = [0; BLOCK];
+            continue;
+        }
+        for c in 0..3 {
+            for i in 0..BLOCK {
+                let sum = bytes[3 * i + c] as u16 + bytes[3 * i + 3 + c] as u16 + bytes[3 * i + 6 + c] as u16;
+                block.pixel[c][i] = sum as f32 * (1.0 / 3.0);
+            }
+        }
+        let mut floor = [0u32; BLOCK];
+        for (i, f) in floor.iter_mut().enumerate() {
+            let q = [
+                block.level[0][i] + block.trend[0][i],
+                block.level[1][i] + block.trend[1][i],
+                block.level[2][i] + block.trend[2][i],
+            ];
+            let p = [block.pixel[0][i], block.pixel[1][i], block.pixel[2][i]];
+            *f = classifier.floor_mask(&p, &q);
+        }
+        for i in 0..BLOCK {
+            block.off[i] = (floor[i] == 0) as u8 & block.alive[i];
+            block.off_rows[i] += block.off[i] as u32;
+        }
+    }
+}
+
+/// One row's step of every floor track in `blocks`: a column whose pixel
+/// was floor takes it in (Holt's update of level and trend), the others
+/// coast along their trend.
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
+fn follow_blocks(blocks: &mut [Block], rate: f32, trend_rate: f32) {
+    for block in blocks.iter_mut().filter(|b| u64::from_ne_bytes(b.alive) != 0) {
+        // Weights 1 (take the pixel in) or 0 (coast): the choice as
+        // arithmetic, which gives the same values and vectorises.
+        let take = block.off.map(|o| if o == 0 { 1f32 } else { 0.0 });
+        for c in 0..3 {
+            for i in 0..BLOCK {
+                let (level, trend) = (block.level[c][i], block.trend[c][i]);
+                let pred = level + trend;
+                let taken = pred + (take[i] * rate) * (block.pixel[c][i] - pred);
+                block.trend[c][i] = trend + (take[i] * trend_rate) * (taken - level - trend);
+                block.level[c][i] = taken;
+            }
+        }
+    }
+}
+
+/// A pixel that left the floor: the possible base of an obstacle, decided
+/// once the rows an obstacle standing there would span (its run) have been
+/// scanned. The floor track goes on through the run as if it were not an
+/// obstacle, which is what the scan does if it is not.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Candidate {
+    /// The candidate's row.
+    pub row: u32,
+    /// The top row of its run.
+    pub lo: u32,
+    /// The column's count of rows not floor below the candidate's row.
+    pub off_before: u32,
+    /// The floor colour predicted at the candidate's row.
+    pub floor: [f32; 3],
+}
+
+const NONE: u32 = u32::MAX;
+
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    candidate: Candidate,
+    column: u32,
+    /// The column's next candidate.
+    next: u32,
+    /// The next candidate whose run ends on the same row.
+    next_due: u32,
+    /// Rows of the run not floor, once the run is complete.
+    off: Option<u32>,
+}
+
+/// The undecided candidates: per column a queue in scan order, per row the
+/// candidates whose runs end there; linked lists through one arena, so
+/// nothing is moved or allocated per candidate.
+#[derive(Debug, Clone)]
+pub(crate) struct Candidates {
+    nodes: Vec<Node>,
+    head: Vec<u32>,
+    tail: Vec<u32>,
+    due: Vec<u32>,
+}
+
+impl Candidates {
+    pub fn new(width: usize, height: usize) -> Self {
+        Self {
+            nodes: Vec::with_capacity(4 * width),
+            head: vec![NONE; width],
+            tail: vec![NONE; width],
+            due: vec![NONE; height],
+        }
+    }
+
+    /// Queues `candidate` of column `u`.
+    pub fn push(&mut self, u: usize, candidate: Candidate) {
+        let id = self.nodes.len() as u32;
+        let lo = candidate.lo as usize;
+        self.nodes.push(Node {
+            candidate,
+            column: u as u32,
+            next: NONE,
+            next_due: self.due[lo],
+            off: None,
+        });
+        self.due[lo] = id;
+        match self.tail[u] {
+            NONE => self.head[u] = id,
+            t => self.nodes[t as usize].next = id,
+        }
+        self.tail[u] = id;
+    }
+
+    /// Marks the candidates whose runs end at `row` complete, with their
+    /// counts of rows not floor from `off_rows` (per column, through
+    /// `row`); returns the columns where such a candidate is first in line.
+    pub fn complete_row(&mut self, row: usize, off_rows: impl Fn(usize) -> u32) -> Vec<usize> {
+        let mut ready = Vec::new();
+        let mut id = std::mem::replace(&mut self.due[row], NONE);
+        while id != NONE {
+            let node = &mut self.nodes[id as usize];
+            let u = node.column as usize;
+            node.off = Some(off_rows(u) - node.candidate.off_before);
+            if self.head[u] == id {
+                ready.push(u);
+            }
+            id = node.next_due;
+        }
+        ready
+    }
+
+    /// Column `u`'s first candidate and its count of rows not floor, when
+    /// its run is complete.
+    pub fn decidable(&self, u: usize) -> Option<(Candidate, u32)> {
+        let node = self.nodes.get(self.head[u] as usize)?;
+        Some((node.candidate, node.off?))
+    }
+
+    /// Drops column `u`'s first candidate.
+    pub fn pop(&mut self, u: usize) {
+        if let Some(node) = self.nodes.get(self.head[u] as usize) {
+            self.head[u] = node.next;
+            if self.head[u] == NONE {
+                self.tail[u] = NONE;
+            }
+        }
+    }
+
+    /// Drops all of column `u`'s candidates.
+    pub fn clear(&mut self, u: usize) {
+        self.head[u] = NONE;
+        self.tail[u] = NONE;
+    }
+
+    pub fn is_empty(&self, u: usize) -> bool {
+        self.head[u] == NONE
+    }
+}
