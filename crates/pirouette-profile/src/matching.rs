@@ -163,25 +163,54 @@ struct Cell {
     chroma: Option<[f32; 2]>,
 }
 
-/// The matching signal as contiguous arrays (NaN where absent), for the
-/// branch-free inner loop.
+/// The matching signal as contiguous arrays, for the inner loop: values
+/// are 0 where absent and the presence of each is a 0/1 weight, so that
+/// the loop is plain arithmetic and vectorises.
 struct Signals {
+    /// Inverse range; 0 where nothing is in sight or the bin was not seen.
     inv: Vec<f32>,
+    /// 1 where the bin was seen.
+    seen: Vec<f32>,
+    /// 1 where the bin sees an obstacle (inverse range above 0).
+    obstacle: Vec<f32>,
+    /// Chromaticity shares; 0 where the bin has no colour.
     chroma_r: Vec<f32>,
     chroma_g: Vec<f32>,
+    /// 1 where the bin has a colour.
+    coloured: Vec<f32>,
 }
 
-fn signals(cells: &[Cell]) -> Signals {
-    Signals {
-        inv: cells.iter().map(|c| c.inv).collect(),
-        chroma_r: cells
-            .iter()
-            .map(|c| c.chroma.map_or(f32::NAN, |x| x[0]))
-            .collect(),
-        chroma_g: cells
-            .iter()
-            .map(|c| c.chroma.map_or(f32::NAN, |x| x[1]))
-            .collect(),
+impl Signals {
+    /// The signal of bins `range` of `cells`; bins outside the profile are
+    /// absent (all zero).
+    fn new(cells: &[Cell], range: std::ops::Range<i64>) -> Self {
+        let n = (range.end - range.start).max(0) as usize;
+        let mut s = Signals {
+            inv: vec![0.0; n],
+            seen: vec![0.0; n],
+            obstacle: vec![0.0; n],
+            chroma_r: vec![0.0; n],
+            chroma_g: vec![0.0; n],
+            coloured: vec![0.0; n],
+        };
+        let weight = |b: bool| if b { 1f32 } else { 0.0 };
+        for (t, i) in range.enumerate() {
+            let Some(c) = usize::try_from(i).ok().and_then(|i| cells.get(i)) else {
+                continue;
+            };
+            if c.inv.is_nan() {
+                continue;
+            }
+            s.inv[t] = c.inv;
+            s.seen[t] = 1.0;
+            s.obstacle[t] = weight(c.inv > 0.0);
+            if let Some([r, g]) = c.chroma {
+                s.chroma_r[t] = r;
+                s.chroma_g[t] = g;
+                s.coloured[t] = 1.0;
+            }
+        }
+        s
     }
 }
 
@@ -252,8 +281,12 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     // First pass with the nominal noise; then the noise measured in the
     // residuals of that best match sets the scale of the costs and of the
     // significance (the profiles' own noise, not an assumed one).
-    let (sa, sb) = (signals(&a), signals(&b));
-    let nominal = cost_curve(&sa, &sb, offset, k_lo, k_hi, config.inverse_range_sigma, config);
+    // The profile after the turn, padded to whole blocks of the inner
+    // loop; the one before, over every bin some shift compares with it.
+    let a_len = a.len().div_ceil(LANES) as i64 * LANES as i64;
+    let sa = Signals::new(&a, 0..a_len);
+    let sb = Signals::new(&b, offset + k_lo..offset + k_hi + a_len);
+    let nominal = cost_curve(&sa, &sb, k_lo, k_hi, config.inverse_range_sigma, config);
     let Some(first) = best_of(&nominal) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
     };
@@ -265,7 +298,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     let curve = if sigma == config.inverse_range_sigma {
         nominal
     } else {
-        cost_curve(&sa, &sb, offset, k_lo, k_hi, sigma, config)
+        cost_curve(&sa, &sb, k_lo, k_hi, sigma, config)
     };
     let valid = |j: usize| curve.overlap[j] >= min_overlap;
     let Some(best) = best_of(&curve) else {
@@ -376,10 +409,13 @@ fn residual_sigma(a: &[Cell], b: &[Cell], shift: i64) -> Option<f32> {
     Some(1.4826 * *med / std::f32::consts::SQRT_2)
 }
 
+/// The costs of shifts `k_lo..=k_hi`: `sa` is the profile after the turn,
+/// `sb` the one before from the bin that shift `k_lo` puts under `sa`'s
+/// first bin (see [`match_turn`]).
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
 fn cost_curve(
     sa: &Signals,
     sb: &Signals,
-    offset: i64,
     k_lo: i64,
     k_hi: i64,
     inverse_range_sigma: f32,
@@ -395,28 +431,24 @@ fn cost_curve(
     };
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
-    let (a_len, b_len) = (sa.inv.len(), sb.inv.len());
+    let len = sa.inv.len();
     let mut xa = Vec::new();
     let mut xb = Vec::new();
-    for (j, k) in (k_lo..=k_hi).enumerate() {
-        let shift = offset + k;
-        let i_lo = (-shift).max(0) as usize;
-        let i_hi = (b_len as i64 - shift).clamp(0, a_len as i64) as usize;
-        if i_hi <= i_lo {
-            continue;
-        }
-        let len = i_hi - i_lo;
-        let b_lo = (i_lo as i64 + shift) as usize;
-        let (ia, ib) = (&sa.inv[i_lo..i_hi], &sb.inv[b_lo..b_lo + len]);
-        let (ra, rb) = (&sa.chroma_r[i_lo..i_hi], &sb.chroma_r[b_lo..b_lo + len]);
-        let (ga, gb) = (&sa.chroma_g[i_lo..i_hi], &sb.chroma_g[b_lo..b_lo + len]);
+    for j in 0..n {
+        let b = j..j + len;
         let pair = Pair {
-            ia,
-            ib,
-            ra,
-            rb,
-            ga,
-            gb,
+            ia: &sa.inv,
+            ib: &sb.inv[b.clone()],
+            sa: &sa.seen,
+            sb: &sb.seen[b.clone()],
+            oa: &sa.obstacle,
+            ob: &sb.obstacle[b.clone()],
+            ra: &sa.chroma_r,
+            rb: &sb.chroma_r[b.clone()],
+            ga: &sa.chroma_g,
+            gb: &sb.chroma_g[b.clone()],
+            ca: &sa.coloured,
+            cb: &sb.coloured[b],
             inv_s,
             chroma_s,
         };
@@ -440,9 +472,9 @@ fn cost_curve(
             xa.clear();
             xb.clear();
             for i in 0..len {
-                if !(ia[i].is_nan() || ib[i].is_nan()) {
-                    xa.push(ia[i] * inv_s);
-                    xb.push(ib[i] * inv_s);
+                if pair.sa[i] * pair.sb[i] > 0.0 {
+                    xa.push(pair.ia[i] * inv_s);
+                    xb.push(pair.ib[i] * inv_s);
                 }
             }
             range_cost = dct_distance(planner, &mut xa, &mut xb);
@@ -459,14 +491,20 @@ fn cost_curve(
     curve
 }
 
-/// Two aligned stretches of signal.
+/// Two aligned stretches of signal (see [`Signals`]).
 struct Pair<'a> {
     ia: &'a [f32],
     ib: &'a [f32],
+    sa: &'a [f32],
+    sb: &'a [f32],
+    oa: &'a [f32],
+    ob: &'a [f32],
     ra: &'a [f32],
     rb: &'a [f32],
     ga: &'a [f32],
     gb: &'a [f32],
+    ca: &'a [f32],
+    cb: &'a [f32],
     inv_s: f32,
     chroma_s: f32,
 }
@@ -480,40 +518,88 @@ struct Sums {
     n_colour: u32,
 }
 
+/// Lanes of the partial sums in [`Pair::sums`]: eight `f32` fill one AVX
+/// register.
+const LANES: usize = 8;
+
 impl Pair<'_> {
-    /// Branch-free over the overlap (NaN marks what a bin lacks), one
-    /// monomorphised loop per measure.
+    /// The costs over the overlap, one monomorphised loop per measure:
+    /// - a pair of bins counts when both were seen; its range cost when
+    ///   either sees an obstacle (two bins that both see nothing agree
+    ///   trivially);
+    /// - its colour cost when both have a colour: the larger difference of
+    ///   the two chromaticity shares.
+    ///
+    /// All of it is products with the 0/1 weights, and the sums are kept
+    /// in eight lanes (bin `i` adds to lane `i mod 8`) added up at the end,
+    /// so the loop vectorises. Counts are sums of ones, exact in `f32`.
     #[inline(always)]
     fn sums(&self, rho: impl Fn(f32) -> f32) -> Sums {
-        let mut s = Sums {
-            range_cost: 0.0,
-            colour_cost: 0.0,
-            n_range: 0,
-            n_info: 0,
-            n_colour: 0,
-        };
         let n = self.ia.len();
-        let (ib, ra, rb, ga, gb) = (
-            &self.ib[..n],
-            &self.ra[..n],
-            &self.rb[..n],
-            &self.ga[..n],
-            &self.gb[..n],
-        );
-        for i in 0..n {
-            let (x, y) = (self.ia[i], ib[i]);
-            let seen = !(x.is_nan() || y.is_nan());
-            let info = seen & ((x > 0.0) | (y > 0.0));
-            let c = rho((x - y) * self.inv_s);
-            s.range_cost += if info { c } else { 0.0 };
-            s.n_range += seen as u32;
-            s.n_info += info as u32;
-            let e = (ra[i] - rb[i]).abs().max((ga[i] - gb[i]).abs()) * self.chroma_s;
-            let has_colour = seen & !e.is_nan();
-            s.colour_cost += if has_colour { rho(e) } else { 0.0 };
-            s.n_colour += has_colour as u32;
+        // All slices cut to the same length, so the compiler drops the
+        // bounds checks.
+        let pair = Pair {
+            ia: &self.ia[..n],
+            ib: &self.ib[..n],
+            sa: &self.sa[..n],
+            sb: &self.sb[..n],
+            oa: &self.oa[..n],
+            ob: &self.ob[..n],
+            ra: &self.ra[..n],
+            rb: &self.rb[..n],
+            ga: &self.ga[..n],
+            gb: &self.gb[..n],
+            ca: &self.ca[..n],
+            cb: &self.cb[..n],
+            ..*self
+        };
+        assert!(n % LANES == 0, "signals come in whole blocks");
+        let mut acc = [[0f32; LANES]; 5];
+        // Eight pairs of bins at a time, as fixed-size arrays the compiler
+        // maps onto vector registers.
+        #[inline(always)]
+        fn block(c: &[f32], base: usize) -> &[f32; LANES] {
+            c[base..base + LANES].try_into().expect("a whole block")
         }
-        s
+        for base in (0..n).step_by(LANES) {
+            let (ia, ib, sa, sb) = (
+                block(pair.ia, base),
+                block(pair.ib, base),
+                block(pair.sa, base),
+                block(pair.sb, base),
+            );
+            let (oa, ob, ca, cb) = (
+                block(pair.oa, base),
+                block(pair.ob, base),
+                block(pair.ca, base),
+                block(pair.cb, base),
+            );
+            let (ra, rb, ga, gb) = (
+                block(pair.ra, base),
+                block(pair.rb, base),
+                block(pair.ga, base),
+                block(pair.gb, base),
+            );
+            for l in 0..LANES {
+                let seen = sa[l] * sb[l];
+                let info = seen * oa[l].max(ob[l]);
+                let coloured = seen * ca[l] * cb[l];
+                let e = (ra[l] - rb[l]).abs().max((ga[l] - gb[l]).abs()) * pair.chroma_s;
+                acc[0][l] += info * rho((ia[l] - ib[l]) * pair.inv_s);
+                acc[1][l] += coloured * rho(e);
+                acc[2][l] += seen;
+                acc[3][l] += info;
+                acc[4][l] += coloured;
+            }
+        }
+        let [range_cost, colour_cost, n_range, n_info, n_colour] = acc.map(|lanes| lanes.iter().sum::<f32>());
+        Sums {
+            range_cost,
+            colour_cost,
+            n_range: n_range as u32,
+            n_info: n_info as u32,
+            n_colour: n_colour as u32,
+        }
     }
 }
 
