@@ -112,6 +112,8 @@ pub struct OccupancyGrid {
     stamp: Vec<u32>,
     mark: Vec<Seen>,
     profiles: u32,
+    /// Scratch: the cells the profile being inserted touches.
+    touched: Vec<usize>,
     l_hit: f32,
     l_miss: f32,
 }
@@ -132,6 +134,7 @@ impl OccupancyGrid {
             stamp: Vec::new(),
             mark: Vec::new(),
             profiles: 0,
+            touched: Vec::new(),
         })
     }
 
@@ -278,7 +281,9 @@ impl OccupancyGrid {
         );
         self.profiles = self.profiles.wrapping_add(1).max(1);
         let id = self.profiles;
-        let mut touched: Vec<usize> = Vec::new();
+        // The cells this profile touches, in a buffer kept between calls.
+        let mut touched = std::mem::take(&mut self.touched);
+        touched.clear();
         for i in 0..rop.len() {
             if !rop.seen(i) {
                 continue;
@@ -297,14 +302,12 @@ impl OccupancyGrid {
             let to = [c.x + end * dir.x, c.y + end * dir.y];
             let end_cell = self.cell_of(Point2::new(to[0], to[1]));
             let (min_cell, width) = (self.min_cell, self.width);
+            let index =
+                |(ci, cj): (i64, i64)| (cj - min_cell.1) as usize * width + (ci - min_cell.0) as usize;
             let (stamp, mark) = (&mut self.stamp, &mut self.mark);
-            traverse(from, to, s, |ci, cj| {
-                let k = (cj - min_cell.1) as usize * width + (ci - min_cell.0) as usize;
-                let seen = if hit && (ci, cj) == end_cell {
-                    Seen::Occupied
-                } else {
-                    Seen::Free
-                };
+            // Every cell along the ray is free; the obstacle's cell, the
+            // last, is then raised to occupied (occupied wins).
+            let mut visit = |k: usize, seen: Seen| {
                 if stamp[k] != id {
                     stamp[k] = id;
                     mark[k] = seen;
@@ -312,7 +315,11 @@ impl OccupancyGrid {
                 } else if seen > mark[k] {
                     mark[k] = seen;
                 }
-            });
+            };
+            traverse(from, to, s, |ci, cj| visit(index((ci, cj)), Seen::Free));
+            if hit {
+                visit(index(end_cell), Seen::Occupied);
+            }
         }
         let clamp = self.config.clamp_log_odds;
         for &k in &touched {
@@ -323,7 +330,9 @@ impl OccupancyGrid {
             };
             self.log_odds[k] = (self.log_odds[k] + delta).clamp(-clamp, clamp);
         }
-        touched.len()
+        let n = touched.len();
+        self.touched = touched;
+        n
     }
 }
 
