@@ -651,6 +651,94 @@ fn structure(a: &[Cell], b: &[Cell], shift: i64, sigma: f64) -> f64 {
 mod tests {
     use super::*;
 
+    /// The cost curve's vectorised sums against the definitions summed one
+    /// pair at a time: unseen bins, open floor, colours present and absent,
+    /// a profile length that is not a whole number of blocks, and shifts
+    /// that run off both ends.
+    #[test]
+    fn cost_curve_matches_the_definitions_pair_by_pair() {
+        let mut state = 12345u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as f32 / (1u64 << 31) as f32
+        };
+        let mut random_cells = |n: usize| -> Vec<Cell> {
+            (0..n)
+                .map(|_| {
+                    let kind = next();
+                    let inv = if kind < 0.15 {
+                        f32::NAN
+                    } else if kind < 0.4 {
+                        0.0
+                    } else {
+                        1.0 + 3.0 * next()
+                    };
+                    let chroma =
+                        (inv > 0.0 && next() < 0.6).then(|| [0.3 + 0.1 * next(), 0.3 + 0.1 * next()]);
+                    Cell { inv, chroma }
+                })
+                .collect()
+        };
+        let (a, b) = (random_cells(45), random_cells(61));
+        let config = MatchConfig::default();
+        let (offset, k_lo, k_hi, sigma) = (3i64, -20i64, 25i64, 0.02f32);
+        let a_len = a.len().div_ceil(LANES) as i64 * LANES as i64;
+        let curve = cost_curve(
+            &Signals::new(&a, 0..a_len),
+            &Signals::new(&b, offset + k_lo..offset + k_hi + a_len),
+            k_lo,
+            k_hi,
+            sigma,
+            &config,
+        );
+        let rho = |e: f64| (e * e).min(9.0);
+        let mut checked = 0;
+        for (j, k) in (k_lo..=k_hi).enumerate() {
+            let (mut range, mut colour) = (0f64, 0f64);
+            let (mut seen, mut info, mut coloured) = (0, 0, 0);
+            for (i, ca) in a.iter().enumerate() {
+                let Some(cb) = usize::try_from(i as i64 + offset + k).ok().and_then(|t| b.get(t)) else {
+                    continue;
+                };
+                if ca.inv.is_nan() || cb.inv.is_nan() {
+                    continue;
+                }
+                seen += 1;
+                if ca.inv > 0.0 || cb.inv > 0.0 {
+                    info += 1;
+                    range += rho((ca.inv - cb.inv) as f64 / sigma as f64);
+                }
+                if let (Some(x), Some(y)) = (ca.chroma, cb.chroma) {
+                    coloured += 1;
+                    let e =
+                        ((x[0] - y[0]).abs().max((x[1] - y[1]).abs())) as f64 / config.chroma_sigma as f64;
+                    colour += rho(e);
+                }
+            }
+            assert_eq!(curve.overlap[j], seen, "shift {k}");
+            assert_eq!(curve.informative[j], info, "shift {k}");
+            assert_eq!(curve.colour_pairs[j], coloured, "shift {k}");
+            if seen == 0 {
+                assert!(curve.cost[j].is_infinite(), "shift {k}: nothing seen in common");
+                continue;
+            }
+            let expect = if info == 0 {
+                0.0
+            } else {
+                (range + config.colour_weight as f64 * colour) / info as f64
+            };
+            assert!(
+                (curve.cost[j] - expect).abs() <= 1e-5 * expect.max(1.0),
+                "shift {k}: {} vs {expect}",
+                curve.cost[j]
+            );
+            checked += 1;
+        }
+        assert!(checked > 30, "{checked} shifts compared");
+    }
+
     /// A 360° scene of ranges around the robot, seen through a 60° view.
     fn scene_range(bearing: f64) -> f32 {
         let d = bearing.to_degrees().rem_euclid(360.0);
