@@ -130,6 +130,8 @@ pub struct RopExtractor {
     top_floor: Vec<u32>,
     /// Column indices, highest topmost floor row first.
     columns_by_top: Vec<u32>,
+    /// Per column: the bearing of its bottom pixel's floor point.
+    bottom_bearing: Vec<Option<f64>>,
     /// The floor view's bearing span.
     view_rad: (f64, f64),
 }
@@ -194,6 +196,9 @@ impl RopExtractor {
             .collect();
         let mut columns_by_top: Vec<u32> = (0..width).collect();
         columns_by_top.sort_by_key(|&u| std::cmp::Reverse(top_floor[u as usize]));
+        let bottom_bearing = (0..width)
+            .map(|u| table.floor(u, height - 1).map(|p| p.bearing()))
+            .collect();
         let view_rad = table.bearing_span().unwrap_or((0.0, 0.0));
         Ok(Self {
             table,
@@ -204,6 +209,7 @@ impl RopExtractor {
             run_rows,
             top_floor,
             columns_by_top,
+            bottom_bearing,
             view_rad,
         })
     }
@@ -284,11 +290,8 @@ impl RopExtractor {
             rop.insert(p.bearing_rad, p.range_m, p.colour);
             // The floor below the boundary is seen and free: bins between
             // the column's bottom pixel and its boundary are seen.
-            if let Some(bottom) = self.table.floor(u as u32, self.height - 1) {
-                let (a, b) = (
-                    bottom.bearing().min(p.bearing_rad),
-                    bottom.bearing().max(p.bearing_rad),
-                );
+            if let Some(bottom) = self.bottom_bearing[u] {
+                let (a, b) = (bottom.min(p.bearing_rad), bottom.max(p.bearing_rad));
                 if let (Some(i0), Some(i1)) = (rop.bin_of(a), rop.bin_of(b)) {
                     for i in i0..=i1 {
                         rop.insert(rop.bin_centre_rad(i), f32::INFINITY, None);
@@ -383,9 +386,11 @@ impl RopExtractor {
         let mut candidates = Candidates::new(m, n as usize);
         // Columns scanned past their topmost floor row only to finish a run.
         let mut past_top = vec![false; m];
+        // Columns whose first candidate can be decided at the current row.
+        let mut ready = Vec::new();
         let mut v = n - SEED_ROWS - 1;
         loop {
-            lanes.classify(px, v as usize, &classifier, cols.clone());
+            lanes.step(px, v as usize, &classifier, (rate, trend_rate), cols.clone());
             for u in lanes.off_columns(cols.clone()) {
                 if past_top[u] {
                     continue;
@@ -398,13 +403,14 @@ impl RopExtractor {
                         lo: (v + 1).saturating_sub(run),
                         // This row is one of the column's rows not floor.
                         off_before: lanes.off_rows(u) - 1,
-                        floor: lanes.track(u).predict(),
+                        floor: lanes.predicted(u),
                     },
                 );
             }
             // Decide the candidates whose runs end here, in scan order: the
             // first that is an obstacle ends the column.
-            for u in candidates.complete_row(v as usize, |u| lanes.off_rows(u)) {
+            candidates.complete_row(v as usize, |u| lanes.off_rows(u), &mut ready);
+            for &u in &ready {
                 while let Some((c, off)) = candidates.decidable(u) {
                     if let Some(b) = self.decide(px, u as u32, &c, off, &classifier) {
                         out[u] = b;
@@ -421,7 +427,6 @@ impl RopExtractor {
                     lanes.stop(u);
                 }
             }
-            lanes.follow(rate, trend_rate, cols.clone());
             // Columns whose floor ends at this row see nothing, once their
             // candidates are decided.
             while let Some(&&u) = ends.peek() {
@@ -624,7 +629,7 @@ mod tests {
             // only.
             let edge = |u: u32| {
                 let g = u / 3 % 7;
-                (g != 6).then(|| 40.0 + 9.0 * g as f32)
+                (g != 6).then_some(40.0 + 9.0 * g as f32)
             };
             let img = image::RgbImage::from_fn(width, 240, |u, v| match edge(u) {
                 Some(e) if (v as f32) < e => image::Rgb([220, 220, 220]),

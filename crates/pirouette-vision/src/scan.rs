@@ -103,15 +103,6 @@ impl FloorTrack {
         }
         Self { level, trend }
     }
-
-    /// The floor colour expected at the next row up.
-    pub fn predict(&self) -> [f32; 3] {
-        [
-            self.level[0] + self.trend[0],
-            self.level[1] + self.trend[1],
-            self.level[2] + self.trend[2],
-        ]
-    }
 }
 
 /// The pixel at `(u, v)` averaged with its left and right neighbours.
@@ -137,6 +128,8 @@ struct Block {
     /// The current row, each pixel averaged with its left and right
     /// neighbours (as [`smoothed`]).
     pixel: [[f32; BLOCK]; 3],
+    /// The floor colour the tracks predicted for the current row.
+    predicted: [[f32; BLOCK]; 3],
     /// 1 where a column is still being scanned.
     alive: [u8; BLOCK],
     /// 1 where an alive column's pixel in the current row is not floor.
@@ -193,13 +186,15 @@ impl Lanes {
         self.blocks[u / BLOCK].off_rows[u % BLOCK]
     }
 
-    /// Column `u`'s floor track.
-    pub fn track(&self, u: usize) -> FloorTrack {
+    /// The floor colour column `u`'s track predicted for the row last
+    /// classified.
+    pub fn predicted(&self, u: usize) -> [f32; 3] {
         let (block, i) = (&self.blocks[u / BLOCK], u % BLOCK);
-        FloorTrack {
-            level: [block.level[0][i], block.level[1][i], block.level[2][i]],
-            trend: [block.trend[0][i], block.trend[1][i], block.trend[2][i]],
-        }
+        [
+            block.predicted[0][i],
+            block.predicted[1][i],
+            block.predicted[2][i],
+        ]
     }
 
     /// The blocks holding columns `cols`.
@@ -207,25 +202,35 @@ impl Lanes {
         cols.start / BLOCK..cols.end.div_ceil(BLOCK)
     }
 
-    /// Loads row `v` of the interleaved RGB image `px` and classifies it
-    /// against each column's predicted floor, over the blocks holding
-    /// `cols`; afterwards [`Lanes::off_columns`] lists the alive columns
+    /// Loads row `v` of the interleaved RGB image `px`, classifies it
+    /// against each column's predicted floor and follows the floor, over
+    /// the blocks holding `cols`: columns whose pixel is floor take it in
+    /// (Holt's update of level and trend), the others coast along their
+    /// trend. Afterwards [`Lanes::off_columns`] lists the alive columns
     /// whose pixel is not floor.
-    pub fn classify(&mut self, px: &[u8], v: usize, classifier: &Classifier, cols: std::ops::Range<usize>) {
+    pub fn step(
+        &mut self,
+        px: &[u8],
+        v: usize,
+        classifier: &Classifier,
+        rates: (f32, f32),
+        cols: std::ops::Range<usize>,
+    ) {
         let m = self.width;
         let src = &px[v * m * 3..(v + 1) * m * 3];
         self.row[3..3 + m * 3].copy_from_slice(src);
         self.row.copy_within(3..6, 0);
         self.row.copy_within(m * 3..m * 3 + 3, m * 3 + 3);
         let span = Self::block_span(&cols);
-        classify_blocks(
+        step_blocks(
             &mut self.blocks[span.clone()],
             &self.row[span.start * BLOCK * 3..],
             classifier,
+            rates,
         );
     }
 
-    /// The columns in `cols` that [`Lanes::classify`] found alive and not
+    /// The columns in `cols` that [`Lanes::step`] found alive and not
     /// floor, left to right.
     pub fn off_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
         let span = Self::block_span(&cols);
@@ -240,19 +245,12 @@ impl Lanes {
                     .map(move |i| (first + k) * BLOCK + i)
             })
     }
-
-    /// Follows the floor over the blocks holding `cols`: columns whose
-    /// pixel was floor take it in, the others coast along their trend.
-    pub fn follow(&mut self, rate: f32, trend_rate: f32, cols: std::ops::Range<usize>) {
-        let span = Self::block_span(&cols);
-        follow_blocks(&mut self.blocks[span], rate, trend_rate);
-    }
 }
 
-/// Fills each block's pixels from `row` (the padded row from the blocks'
-/// first column on) and marks its alive columns that are not floor.
+/// One row's step of the blocks (see [`Lanes::step`]); `row` is the padded
+/// row from the blocks' first column on.
 #[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
-fn classify_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier) {
+fn step_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier, (rate, trend_rate): (f32, f32)) {
     for (block, bytes) in blocks
         .iter_mut()
         .zip(row.windows((BLOCK + 2) * 3).step_by(BLOCK * 3))
@@ -265,14 +263,15 @@ fn classify_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier) {
             for i in 0..BLOCK {
                 let sum = bytes[3 * i + c] as u16 + bytes[3 * i + 3 + c] as u16 + bytes[3 * i + 6 + c] as u16;
                 block.pixel[c][i] = sum as f32 * (1.0 / 3.0);
+                block.predicted[c][i] = block.level[c][i] + block.trend[c][i];
             }
         }
         let mut floor = [0u32; BLOCK];
         for (i, f) in floor.iter_mut().enumerate() {
             let q = [
-                block.level[0][i] + block.trend[0][i],
-                block.level[1][i] + block.trend[1][i],
-                block.level[2][i] + block.trend[2][i],
+                block.predicted[0][i],
+                block.predicted[1][i],
+                block.predicted[2][i],
             ];
             let p = [block.pixel[0][i], block.pixel[1][i], block.pixel[2][i]];
             *f = classifier.floor_mask(&p, &q);
@@ -281,22 +280,13 @@ fn classify_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier) {
             block.off[i] = (floor[i] == 0) as u8 & block.alive[i];
             block.off_rows[i] += block.off[i] as u32;
         }
-    }
-}
-
-/// One row's step of every floor track in `blocks`: a column whose pixel
-/// was floor takes it in (Holt's update of level and trend), the others
-/// coast along their trend.
-#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
-fn follow_blocks(blocks: &mut [Block], rate: f32, trend_rate: f32) {
-    for block in blocks.iter_mut().filter(|b| u64::from_ne_bytes(b.alive) != 0) {
         // Weights 1 (take the pixel in) or 0 (coast): the choice as
         // arithmetic, which gives the same values and vectorises.
-        let take = block.off.map(|o| if o == 0 { 1f32 } else { 0.0 });
+        let take = floor.map(|f| f as f32);
         for c in 0..3 {
             for i in 0..BLOCK {
                 let (level, trend) = (block.level[c][i], block.trend[c][i]);
-                let pred = level + trend;
+                let pred = block.predicted[c][i];
                 let taken = pred + (take[i] * rate) * (block.pixel[c][i] - pred);
                 block.trend[c][i] = trend + (take[i] * trend_rate) * (taken - level - trend);
                 block.level[c][i] = taken;
@@ -377,9 +367,10 @@ impl Candidates {
 
     /// Marks the candidates whose runs end at `row` complete, with their
     /// counts of rows not floor from `off_rows` (per column, through
-    /// `row`); returns the columns where such a candidate is first in line.
-    pub fn complete_row(&mut self, row: usize, off_rows: impl Fn(usize) -> u32) -> Vec<usize> {
-        let mut ready = Vec::new();
+    /// `row`); `ready` becomes the columns where such a candidate is first
+    /// in line.
+    pub fn complete_row(&mut self, row: usize, off_rows: impl Fn(usize) -> u32, ready: &mut Vec<usize>) {
+        ready.clear();
         let mut id = std::mem::replace(&mut self.due[row], NONE);
         while id != NONE {
             let node = &mut self.nodes[id as usize];
@@ -390,7 +381,6 @@ impl Candidates {
             }
             id = node.next_due;
         }
-        ready
     }
 
     /// Column `u`'s first candidate and its count of rows not floor, when
