@@ -613,6 +613,143 @@ mod tests {
         })
     }
 
+    /// The oracle for the lock-step scan: each column scanned on its own,
+    /// every candidate decided on the spot by following the floor over its
+    /// run (the plain form of what the lock-step scan does with deferred
+    /// candidates).
+    fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32) -> ColumnBoundary {
+        let (m, n) = (ex.width, ex.height);
+        let top = ex.top_floor[u as usize];
+        if top >= n {
+            return ColumnBoundary::NoFloor;
+        }
+        let pix = |v: u32| smoothed(px, m, u, v);
+        let seed_rows = SEED_ROWS.min(n - top);
+        let seed: Vec<[f32; 3]> = (n - seed_rows..n).rev().map(pix).collect();
+        if seed_rows == n - top {
+            return ColumnBoundary::Clear { top_row: top };
+        }
+        let FloorTrack { level, trend } = FloorTrack::seed(&seed);
+        let classifier = Classifier {
+            noise: ex.config.noise_sigmas * sigma,
+            brightness_step: ex.config.min_brightness_step,
+            chroma_step: ex.config.min_chroma_step,
+        };
+        let (rate, trend_rate) = (ex.config.adapt_rate, ex.config.trend_rate);
+        // Holt's update when the pixel is floor, coasting otherwise; returns
+        // whether it was floor.
+        let step = |level: &mut [f32; 3], trend: &mut [f32; 3], p: &[f32; 3]| {
+            let pred: [f32; 3] = std::array::from_fn(|c| level[c] + trend[c]);
+            let floor = classifier.is_floor(p, &pred);
+            for c in 0..3 {
+                if floor {
+                    let taken = pred[c] + rate * (p[c] - pred[c]);
+                    trend[c] += trend_rate * (taken - level[c] - trend[c]);
+                    level[c] = taken;
+                } else {
+                    level[c] = pred[c];
+                }
+            }
+            floor
+        };
+        let (mut level, mut trend) = (level, trend);
+        let mut v = n - seed_rows - 1;
+        loop {
+            let pred: [f32; 3] = std::array::from_fn(|c| level[c] + trend[c]);
+            let (before_level, before_trend) = (level, trend);
+            if !step(&mut level, &mut trend, &pix(v)) {
+                let run = ex.run_rows[(v * m + u) as usize].max(1) as u32;
+                let lo = (v + 1).saturating_sub(run);
+                let (mut l, mut t) = (before_level, before_trend);
+                let off = (lo..=v).rev().filter(|&w| !step(&mut l, &mut t, &pix(w))).count();
+                if off as f32 >= ex.config.run_fraction * (v - lo + 1) as f32
+                    && ex.column_confirms(px, u, v, &pred, &classifier)
+                {
+                    return ex.refine(px, u, v, pred);
+                }
+            }
+            if v == top {
+                return ColumnBoundary::Clear { top_row: top };
+            }
+            v -= 1;
+        }
+    }
+
+    /// The lock-step scan finds exactly what scanning each column on its
+    /// own finds, on images with a blotchy floor that brightens upwards,
+    /// noise, specks, and walls and boxes of many heights and contrasts
+    /// (some close to the floor's colour).
+    #[test]
+    fn lock_step_scan_equals_the_column_by_column_oracle() {
+        let mut state = 7u64;
+        let mut rand = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as f32 / (1u64 << 31) as f32
+        };
+        let mut compared = 0;
+        for width in [320u32, 75] {
+            let c = PinholeModel {
+                width,
+                cx: (width as f64 - 1.0) / 2.0,
+                ..cam()
+            };
+            let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+            for _ in 0..4 {
+                // Obstacles: (first column, last column, base row, colour).
+                let boxes: Vec<(u32, u32, f32, [f32; 3])> = (0..6)
+                    .map(|_| {
+                        let a = (rand() * width as f32) as u32;
+                        let w = 3 + (rand() * 80.0) as u32;
+                        let contrast = 0.8 + 0.5 * rand();
+                        (
+                            a,
+                            a + w,
+                            20.0 + 200.0 * rand(),
+                            [90.0 * contrast, 85.0, 80.0 / contrast],
+                        )
+                    })
+                    .collect();
+                let blotch: Vec<f32> = (0..64).map(|_| 0.9 + 0.2 * rand()).collect();
+                let mut img = image::RgbImage::new(width, 240);
+                for (u, v, p) in img.enumerate_pixels_mut() {
+                    let wall = boxes
+                        .iter()
+                        .filter(|b| (b.0..=b.1).contains(&u) && (v as f32) < b.2)
+                        .max_by(|x, y| x.2.total_cmp(&y.2));
+                    let mut rgb = match wall {
+                        Some(b) => b.3,
+                        None => {
+                            let k = blotch[((u / 40) * 8 + v / 30) as usize % 64];
+                            let lift = 1.0 + 0.004 * (239 - v) as f32;
+                            [70.0 * k * lift, 66.0 * k * lift, 60.0 * k * lift]
+                        }
+                    };
+                    if rand() < 0.002 {
+                        rgb = [240.0; 3];
+                    }
+                    *p = image::Rgb(rgb.map(|x| (x + 6.0 * (rand() - 0.5)).clamp(0.0, 255.0) as u8));
+                }
+                let px = img.as_raw();
+                let sigma = noise_sigma(px, width, 240);
+                let lock_step = ex.boundaries(&img).unwrap();
+                for (u, found) in lock_step.iter().enumerate() {
+                    assert_eq!(
+                        *found,
+                        column_by_column(&ex, px, u as u32, sigma),
+                        "width {width} column {u}"
+                    );
+                }
+                compared += lock_step
+                    .iter()
+                    .filter(|b| matches!(b, ColumnBoundary::Obstacle { .. }))
+                    .count();
+            }
+        }
+        assert!(compared > 500, "only {compared} obstacle columns compared");
+    }
+
     /// Columns are scanned side by side in blocks; each must find its own
     /// edge, whatever its neighbours do and however the width splits into
     /// blocks.

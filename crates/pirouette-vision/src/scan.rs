@@ -141,6 +141,9 @@ struct Block {
 /// The floor tracks of every column and the row they are looking at, in
 /// blocks of eight columns held channel by channel, so that the loops over
 /// a block's columns compile to vector instructions.
+///
+/// # Memory
+/// About 57 bytes a column (20 KB for 320 columns), rebuilt per image.
 #[derive(Debug, Clone)]
 pub(crate) struct Lanes {
     width: usize,
@@ -328,6 +331,10 @@ struct Node {
 /// The undecided candidates: per column a queue in scan order, per row the
 /// candidates whose runs end there; linked lists through one arena, so
 /// nothing is moved or allocated per candidate.
+///
+/// # Memory
+/// 44 bytes a candidate (every pixel found not floor while its column is
+/// scanned: a few thousand an image), 8 bytes a column and 4 a row.
 #[derive(Debug, Clone)]
 pub(crate) struct Candidates {
     nodes: Vec<Node>,
