@@ -12,6 +12,7 @@ use pirouette_profile::Rop;
 use pirouette_register::{
     endpoints, register, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Registration,
 };
+use rayon::prelude::*;
 
 /// Settings of mapping.
 #[derive(Debug, Clone, PartialEq)]
@@ -263,7 +264,9 @@ fn frame_fields(
         Point2::new(c.x - reach, c.y - reach),
         Point2::new(c.x + reach, c.y + reach),
     );
+    // One field per frame, built in parallel (each is independent).
     (0..n)
+        .into_par_iter()
         .map(|k| {
             let (mut grid, mut points) = others.clone();
             for j in (0..n).filter(|&j| j != k) {
@@ -314,7 +317,7 @@ fn chain_headings<'f>(
     placed: &mut Placed,
     sweep: &DatasetSweep,
     rops: &[Rop],
-    field: impl Fn(usize) -> &'f LikelihoodField,
+    field: impl Fn(usize) -> &'f LikelihoodField + Sync,
     config: &MapConfig,
 ) -> Result<()> {
     let n = sweep.frames.len();
@@ -323,30 +326,40 @@ fn chain_headings<'f>(
     let sigma_ver = config.sweep.verified_sigma_rad;
     // A frame's own registration searches as far as one command errs.
     let anchor_window = sigma_cmd;
-    let mut anchors: Vec<(usize, f64, f64)> = Vec::new();
-    for (k, &heading) in cur.iter().enumerate() {
+    // Each frame's registration is independent of the others': in parallel,
+    // collected in frame order.
+    let placed_now: &Placed = placed;
+    let anchor_of = |k: usize| -> Result<Option<(usize, f64, f64)>> {
+        let heading = cur[k];
         let to_frame = Pose2::new(0.0, 0.0, -heading);
-        let pts: Vec<Point2> = placed
+        let pts: Vec<Point2> = placed_now
             .points(sweep, &[k], rops)
             .into_iter()
             .map(|p| to_frame.transform_point(p))
             .collect();
         let prior = PosePrior {
-            mean: placed.frame_pose(k),
+            mean: placed_now.frame_pose(k),
             sigma_forward_m: TURN_SHIFT_M,
             sigma_left_m: TURN_SHIFT_M,
             sigma_theta_rad: anchor_window,
         };
         let reg = register(field(k), &pts, &prior, &config.turn)?;
         let sd = reg.covariance[(2, 2)].sqrt().max(sigma_ver);
-        if reg.accepted && sd < anchor_window / 2.0 {
-            anchors.push((
+        Ok((reg.accepted && sd < anchor_window / 2.0).then(|| {
+            (
                 k,
                 heading + pirouette_geom::wrap_angle(reg.pose.theta - prior.mean.theta),
                 sd,
-            ));
-        }
-    }
+            )
+        }))
+    };
+    let mut anchors: Vec<(usize, f64, f64)> = (0..n)
+        .into_par_iter()
+        .map(anchor_of)
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
     let mut links: Vec<(usize, usize, f64, f64)> = sweep
         .sweep
         .links
