@@ -31,6 +31,10 @@ pub struct ProfileOptions {
     /// Steps must also exceed this many standard deviations of the image noise.
     #[arg(long, default_value_t = VisionConfig::default().noise_sigmas)]
     noise_sigmas: f32,
+    /// At a step within one image row, this fraction of the chromaticity
+    /// change is enough (1 turns the edge cue off).
+    #[arg(long, default_value_t = VisionConfig::default().edge_fraction)]
+    edge_fraction: f32,
 }
 
 impl ProfileOptions {
@@ -51,6 +55,7 @@ impl ProfileOptions {
             min_brightness_step: self.min_brightness_step,
             min_chroma_step: self.min_chroma_step,
             noise_sigmas: self.noise_sigmas,
+            edge_fraction: self.edge_fraction,
             filter,
             ..VisionConfig::default()
         })

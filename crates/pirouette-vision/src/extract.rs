@@ -47,6 +47,10 @@ pub struct VisionConfig {
     /// Steps must also exceed this many standard deviations of the image's
     /// own noise (measured per image).
     pub noise_sigmas: f32,
+    /// Where a column's colour changes within one row (a sharp step), this
+    /// fraction of the chromaticity step is enough to leave the floor; 1
+    /// turns the edge cue off.
+    pub edge_fraction: f32,
     /// How fast the floor reference's level follows the floor up a column,
     /// per row.
     pub adapt_rate: f32,
@@ -70,6 +74,13 @@ impl Default for VisionConfig {
     /// - `min_chroma_step`: 5 %: a change of material shows in
     ///   chromaticity, which lighting leaves nearly unchanged;
     /// - `noise_sigmas`: 5, so noise alone almost never crosses it;
+    /// - `edge_fraction`: 0.5. Lighting (shade, the floor's tonal patches)
+    ///   changes brightness and hardly chromaticity, a change of material
+    ///   changes both; where the change happens within one row (a wall's
+    ///   base is that sharp, the floor track follows gradual changes), half
+    ///   the chromaticity step is trusted as material. The run above must
+    ///   still stay that far off the floor, and the brightness tolerance
+    ///   and the noise allowance are unchanged;
     /// - `adapt_rate`: 0.25 per row (a memory of about four rows);
     /// - `trend_rate`: 0.1 per row: the brightness trend of the floor
     ///   (vignetting, light fall-off) changes slowly;
@@ -82,6 +93,7 @@ impl Default for VisionConfig {
             min_brightness_step: 0.18,
             min_chroma_step: 0.05,
             noise_sigmas: 5.0,
+            edge_fraction: 0.5,
             adapt_rate: 0.25,
             trend_rate: 0.1,
             run_fraction: 0.75,
@@ -100,8 +112,12 @@ impl VisionConfig {
             return bad("min obstacle height must be non-negative");
         }
         let unit = |x: f32| x > 0.0 && x <= 1.0;
-        if !(unit(self.adapt_rate) && unit(self.trend_rate) && unit(self.run_fraction)) {
-            return bad("adapt rate, trend rate and run fraction must be in (0, 1]");
+        if !(unit(self.adapt_rate)
+            && unit(self.trend_rate)
+            && unit(self.run_fraction)
+            && unit(self.edge_fraction))
+        {
+            return bad("adapt rate, trend rate, run fraction and edge fraction must be in (0, 1]");
         }
         if !(self.min_brightness_step >= 0.0 && self.min_chroma_step >= 0.0 && self.noise_sigmas >= 0.0) {
             return bad("brightness and chroma steps and noise multiples must be non-negative");
@@ -380,6 +396,7 @@ impl RopExtractor {
         let Some(mut cols) = alive_span(&lanes, 0..m) else {
             return out;
         };
+        let edge_classifier = classifier.scaled(self.config.edge_fraction);
         let (rate, trend_rate) = (self.config.adapt_rate, self.config.trend_rate);
         let mut ends = self.columns_by_top.iter().peekable();
         // Candidate obstacle bases whose runs are still being scanned.
@@ -390,7 +407,13 @@ impl RopExtractor {
         let mut ready = Vec::new();
         let mut v = n - SEED_ROWS - 1;
         loop {
-            lanes.step(px, v as usize, &classifier, (rate, trend_rate), cols.clone());
+            lanes.step(
+                px,
+                v as usize,
+                (&classifier, &edge_classifier),
+                (rate, trend_rate),
+                cols.clone(),
+            );
             for u in lanes.off_columns(cols.clone()) {
                 if past_top[u] {
                     continue;
@@ -404,8 +427,25 @@ impl RopExtractor {
                         // This row is one of the column's rows not floor.
                         off_before: lanes.off_rows(u) - 1,
                         floor: lanes.predicted(u),
+                        edge: false,
                     },
                 );
+            }
+            // Sharp steps within the floor's tolerances: followed over their
+            // runs at once, queued only when they are an obstacle's base.
+            for u in lanes.edge_columns(cols.clone()) {
+                if !past_top[u] && self.edge_confirms(px, u as u32, v, lanes.coasted(u), &edge_classifier) {
+                    candidates.push(
+                        u,
+                        Candidate {
+                            row: v,
+                            lo: v,
+                            off_before: lanes.off_rows(u),
+                            floor: lanes.predicted(u),
+                            edge: true,
+                        },
+                    );
+                }
             }
             // Decide the candidates whose runs end here, in scan order: the
             // first that is an obstacle ends the column.
@@ -464,6 +504,9 @@ impl RopExtractor {
         off: u32,
         classifier: &Classifier,
     ) -> Option<ColumnBoundary> {
+        if c.edge {
+            return Some(self.refine(px, u, c.row, c.floor));
+        }
         let span = c.row - c.lo + 1;
         // The column itself, not just its neighbours averaged into it, must
         // show the obstacle: beside an obstacle's side edge a third of an
@@ -471,6 +514,27 @@ impl RopExtractor {
         (off as f32 >= self.config.run_fraction * span as f32
             && self.column_confirms(px, u, c.row, &c.floor, classifier))
         .then(|| self.refine(px, u, c.row, c.floor))
+    }
+
+    /// Whether a sharp step at row `v` of column `u` (a floor pixel no
+    /// longer close to the floor, above one that was) is an obstacle's base:
+    /// following the floor from `coasted` (the track after coasting over
+    /// row `v`) with the edge test's tolerances, the run above must stay off
+    /// the floor as an obstacle's would, and the column itself must show it.
+    fn edge_confirms(&self, px: &[u8], u: u32, v: u32, coasted: FloorTrack, edge: &Classifier) -> bool {
+        let run = self.run_rows[(v * self.width + u) as usize].max(1) as u32;
+        let lo = (v + 1).saturating_sub(run);
+        let mut ahead = coasted;
+        let mut off = 1u32;
+        for w in (lo..v).rev() {
+            let q = smoothed(px, self.width, u, w);
+            let close = edge.is_floor(&q, &ahead.predict());
+            ahead.step(&q, close, self.config.adapt_rate, self.config.trend_rate);
+            off += (!close) as u32;
+        }
+        let pred: [f32; 3] = std::array::from_fn(|c| coasted.level[c]);
+        off as f32 >= self.config.run_fraction * (v - lo + 1) as f32
+            && self.column_confirms(px, u, v, &pred, edge)
     }
 
     /// Whether the raw pixels of column `u` just above row `v` (two of the
@@ -636,38 +700,42 @@ mod tests {
             chroma_step: ex.config.min_chroma_step,
         };
         let (rate, trend_rate) = (ex.config.adapt_rate, ex.config.trend_rate);
-        // Holt's update when the pixel is floor, coasting otherwise; returns
-        // whether it was floor.
-        let step = |level: &mut [f32; 3], trend: &mut [f32; 3], p: &[f32; 3]| {
-            let pred: [f32; 3] = std::array::from_fn(|c| level[c] + trend[c]);
-            let floor = classifier.is_floor(p, &pred);
-            for c in 0..3 {
-                if floor {
-                    let taken = pred[c] + rate * (p[c] - pred[c]);
-                    trend[c] += trend_rate * (taken - level[c] - trend[c]);
-                    level[c] = taken;
-                } else {
-                    level[c] = pred[c];
-                }
-            }
-            floor
-        };
-        let (mut level, mut trend) = (level, trend);
+        let edge = classifier.scaled(ex.config.edge_fraction);
+        let mut track = FloorTrack { level, trend };
+        let mut close_below = true;
         let mut v = n - seed_rows - 1;
         loop {
-            let pred: [f32; 3] = std::array::from_fn(|c| level[c] + trend[c]);
-            let (before_level, before_trend) = (level, trend);
-            if !step(&mut level, &mut trend, &pix(v)) {
+            let p = pix(v);
+            let pred = track.predict();
+            let floor = classifier.is_floor(&p, &pred);
+            let close = edge.is_floor(&p, &pred);
+            if !floor {
                 let run = ex.run_rows[(v * m + u) as usize].max(1) as u32;
                 let lo = (v + 1).saturating_sub(run);
-                let (mut l, mut t) = (before_level, before_trend);
-                let off = (lo..=v).rev().filter(|&w| !step(&mut l, &mut t, &pix(w))).count();
+                let mut ahead = track;
+                let off = (lo..=v)
+                    .rev()
+                    .filter(|&w| {
+                        let q = pix(w);
+                        let f = classifier.is_floor(&q, &ahead.predict());
+                        ahead.step(&q, f, rate, trend_rate);
+                        !f
+                    })
+                    .count();
                 if off as f32 >= ex.config.run_fraction * (v - lo + 1) as f32
                     && ex.column_confirms(px, u, v, &pred, &classifier)
                 {
                     return ex.refine(px, u, v, pred);
                 }
+            } else if !close && close_below {
+                let mut coasted = track;
+                coasted.step(&p, false, rate, trend_rate);
+                if ex.edge_confirms(px, u, v, coasted, &edge) {
+                    return ex.refine(px, u, v, pred);
+                }
             }
+            track.step(&p, floor, rate, trend_rate);
+            close_below = close;
             if v == top {
                 return ColumnBoundary::Clear { top_row: top };
             }
@@ -806,6 +874,64 @@ mod tests {
                 "width {width}: {checked} columns checked"
             );
         }
+    }
+
+    /// A wall 12 % brighter than the floor and 3.5 % off in chromaticity
+    /// lies inside the floor's tolerances, (12/18)² + (3.5/5)² = 0.93: its
+    /// sharp base is found by the edge cue and only by it. The same colour
+    /// reached gradually, or a sharp step of brightness alone, stays floor.
+    #[test]
+    fn edge_cue_finds_sharp_steps_of_chromaticity_only() {
+        let floor = [100.0f32, 95.0, 85.0];
+        let wall = [115.9f32, 105.7, 92.0];
+        let bright = floor.map(|x| x * 1.12);
+        let image = |top: [f32; 3], ramp_rows: f32| {
+            image::RgbImage::from_fn(320, 240, |_, v| {
+                // Wall colour above row 60, blended over `ramp_rows` below.
+                let a = ((60.0 + ramp_rows - v as f32) / ramp_rows.max(1.0)).clamp(0.0, 1.0);
+                let a = if ramp_rows == 0.0 {
+                    (v < 60) as u8 as f32
+                } else {
+                    a
+                };
+                image::Rgb(std::array::from_fn(|c| {
+                    (floor[c] + a * (top[c] - floor[c])).round() as u8
+                }))
+            })
+        };
+        let scan = |img: &image::RgbImage, edge_fraction: f32| {
+            let config = VisionConfig {
+                edge_fraction,
+                ..VisionConfig::default()
+            };
+            let b = RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap();
+            let at_base = b
+                .iter()
+                .filter(|c| matches!(c, ColumnBoundary::Obstacle { row, .. } if (row - 59.5).abs() < 0.6))
+                .count();
+            let clear = b
+                .iter()
+                .filter(|c| matches!(c, ColumnBoundary::Clear { .. }))
+                .count();
+            (at_base, clear)
+        };
+        let sharp = image(wall, 0.0);
+        assert_eq!(scan(&sharp, 0.5), (320, 0), "the wall's base, every column");
+        assert_eq!(
+            scan(&sharp, 1.0),
+            (0, 320),
+            "without the edge cue the wall is floor"
+        );
+        assert_eq!(
+            scan(&image(wall, 40.0), 0.5),
+            (0, 320),
+            "a gradual change is followed"
+        );
+        assert_eq!(
+            scan(&image(bright, 0.0), 0.5),
+            (0, 320),
+            "a step of brightness alone is lighting"
+        );
     }
 
     #[test]

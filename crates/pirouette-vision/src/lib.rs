@@ -15,7 +15,10 @@
 //! not. Thresholds scale with the noise measured in the image. A candidate
 //! boundary is accepted only if the non-floor run above it is as tall as an
 //! obstacle of [`VisionConfig::min_obstacle_height_m`] would appear there,
-//! which rejects flat specks (lint, reflections) by geometry.
+//! which rejects flat specks (lint, reflections) by geometry. Where the
+//! colour changes within one row (an edge), a smaller change of
+//! chromaticity is enough ([`VisionConfig::edge_fraction`]): a wall close to
+//! the floor's colour still has a sharp base.
 //!
 //! ```
 //! use pirouette_camera::PinholeModel;

@@ -39,6 +39,14 @@ impl Classifier {
     /// that a loop over columns vectorises.
     #[inline(always)]
     pub fn floor_mask(&self, p: &[f32; 3], q: &[f32; 3]) -> u32 {
+        self.masks(p, q, self.chroma_step).0
+    }
+
+    /// [`Classifier::floor_mask`] and, sharing its work, the same test with
+    /// chromaticity tolerance `edge_chroma_step` (that of
+    /// [`Classifier::scaled`]), each as 1 or 0.
+    #[inline(always)]
+    pub fn masks(&self, p: &[f32; 3], q: &[f32; 3], edge_chroma_step: f32) -> (u32, u32) {
         let sum_p = p[0] + p[1] + p[2];
         let sum_q = max0(q[0] + q[1] + q[2], 0.0);
         let db = sum_p - sum_q;
@@ -52,9 +60,25 @@ impl Classifier {
             let expect = b * q[c];
             let e = p[c] - expect;
             let t = max0(self.chroma_step * expect, self.noise);
-            (e * e <= room * t * t) as u32
+            let t_edge = max0(edge_chroma_step * expect, self.noise);
+            (
+                (e * e <= room * t * t) as u32,
+                (e * e <= room * t_edge * t_edge) as u32,
+            )
         };
-        inside & channel(0) & channel(1) & channel(2)
+        let (c0, c1, c2) = (channel(0), channel(1), channel(2));
+        (inside & c0.0 & c1.0 & c2.0, inside & c0.1 & c1.1 & c2.1)
+    }
+}
+
+impl Classifier {
+    /// The same test with the chromaticity tolerance scaled by `fraction`
+    /// (the brightness tolerance and the noise allowance stay).
+    pub fn scaled(&self, fraction: f32) -> Self {
+        Self {
+            chroma_step: self.chroma_step * fraction,
+            ..*self
+        }
     }
 }
 
@@ -103,6 +127,27 @@ impl FloorTrack {
         }
         Self { level, trend }
     }
+
+    /// One row: takes in pixel `p` when it is `floor` (Holt's update of
+    /// level and trend), otherwise coasts along the trend. The same
+    /// arithmetic as the lock-step update.
+    pub fn step(&mut self, p: &[f32; 3], floor: bool, rate: f32, trend_rate: f32) {
+        for c in 0..3 {
+            let pred = self.level[c] + self.trend[c];
+            if floor {
+                let taken = pred + rate * (p[c] - pred);
+                self.trend[c] += trend_rate * (taken - self.level[c] - self.trend[c]);
+                self.level[c] = taken;
+            } else {
+                self.level[c] = pred;
+            }
+        }
+    }
+
+    /// The floor colour expected at the next row up.
+    pub fn predict(&self) -> [f32; 3] {
+        std::array::from_fn(|c| self.level[c] + self.trend[c])
+    }
 }
 
 /// The pixel at `(u, v)` averaged with its left and right neighbours.
@@ -134,6 +179,14 @@ struct Block {
     alive: [u8; BLOCK],
     /// 1 where an alive column's pixel in the current row is not floor.
     off: [u8; BLOCK],
+    /// 1 where the pixel of the row last classified was close to the floor
+    /// (within the edge test's tolerances).
+    close: [u8; BLOCK],
+    /// 1 where an alive column's pixel is floor but, unlike the pixel below
+    /// it, not close to it: a sharp step.
+    edge: [u8; BLOCK],
+    /// The tracks' trend before the current row's update.
+    trend_before: [[f32; BLOCK]; 3],
     /// Rows found not floor so far, the current one included.
     off_rows: [u32; BLOCK],
 }
@@ -172,6 +225,8 @@ impl Lanes {
             block.trend[c][i] = track.trend[c];
         }
         block.alive[i] = 1;
+        // The seed below the first row scanned is floor.
+        block.close[i] = 1;
     }
 
     /// Stops scanning column `u`.
@@ -187,6 +242,24 @@ impl Lanes {
     /// included.
     pub fn off_rows(&self, u: usize) -> u32 {
         self.blocks[u / BLOCK].off_rows[u % BLOCK]
+    }
+
+    /// Column `u`'s track as it would be after coasting over the row last
+    /// classified (its prediction, with the trend it had before that row).
+    pub fn coasted(&self, u: usize) -> FloorTrack {
+        let (block, i) = (&self.blocks[u / BLOCK], u % BLOCK);
+        FloorTrack {
+            level: [
+                block.predicted[0][i],
+                block.predicted[1][i],
+                block.predicted[2][i],
+            ],
+            trend: [
+                block.trend_before[0][i],
+                block.trend_before[1][i],
+                block.trend_before[2][i],
+            ],
+        }
     }
 
     /// The floor colour column `u`'s track predicted for the row last
@@ -215,7 +288,7 @@ impl Lanes {
         &mut self,
         px: &[u8],
         v: usize,
-        classifier: &Classifier,
+        classifiers: (&Classifier, &Classifier),
         rates: (f32, f32),
         cols: std::ops::Range<usize>,
     ) {
@@ -228,7 +301,7 @@ impl Lanes {
         step_blocks(
             &mut self.blocks[span.clone()],
             &self.row[span.start * BLOCK * 3..],
-            classifier,
+            classifiers,
             rates,
         );
     }
@@ -236,15 +309,29 @@ impl Lanes {
     /// The columns in `cols` that [`Lanes::step`] found alive and not
     /// floor, left to right.
     pub fn off_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
+        self.flagged(cols, |b| &b.off)
+    }
+
+    /// The columns in `cols` where [`Lanes::step`] found a sharp step that
+    /// stays within the floor's tolerances, left to right.
+    pub fn edge_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
+        self.flagged(cols, |b| &b.edge)
+    }
+
+    fn flagged(
+        &self,
+        cols: std::ops::Range<usize>,
+        flags: impl Fn(&Block) -> &[u8; BLOCK] + Copy + 'static,
+    ) -> impl Iterator<Item = usize> + '_ {
         let span = Self::block_span(&cols);
         let first = span.start;
         self.blocks[span]
             .iter()
             .enumerate()
-            .filter(|(_, b)| u64::from_ne_bytes(b.off) != 0)
+            .filter(move |(_, b)| u64::from_ne_bytes(*flags(b)) != 0)
             .flat_map(move |(k, b)| {
                 (0..BLOCK)
-                    .filter(move |&i| b.off[i] != 0)
+                    .filter(move |&i| flags(b)[i] != 0)
                     .map(move |i| (first + k) * BLOCK + i)
             })
     }
@@ -253,13 +340,19 @@ impl Lanes {
 /// One row's step of the blocks (see [`Lanes::step`]); `row` is the padded
 /// row from the blocks' first column on.
 #[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
-fn step_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier, (rate, trend_rate): (f32, f32)) {
+fn step_blocks(
+    blocks: &mut [Block],
+    row: &[u8],
+    (classifier, edge_classifier): (&Classifier, &Classifier),
+    (rate, trend_rate): (f32, f32),
+) {
     for (block, bytes) in blocks
         .iter_mut()
         .zip(row.windows((BLOCK + 2) * 3).step_by(BLOCK * 3))
     {
         if u64::from_ne_bytes(block.alive) == 0 {
             block.off = [0; BLOCK];
+            block.edge = [0; BLOCK];
             continue;
         }
         for c in 0..3 {
@@ -270,19 +363,23 @@ fn step_blocks(blocks: &mut [Block], row: &[u8], classifier: &Classifier, (rate,
             }
         }
         let mut floor = [0u32; BLOCK];
-        for (i, f) in floor.iter_mut().enumerate() {
+        let mut close = [0u32; BLOCK];
+        for i in 0..BLOCK {
             let q = [
                 block.predicted[0][i],
                 block.predicted[1][i],
                 block.predicted[2][i],
             ];
             let p = [block.pixel[0][i], block.pixel[1][i], block.pixel[2][i]];
-            *f = classifier.floor_mask(&p, &q);
+            (floor[i], close[i]) = classifier.masks(&p, &q, edge_classifier.chroma_step);
         }
         for i in 0..BLOCK {
             block.off[i] = (floor[i] == 0) as u8 & block.alive[i];
             block.off_rows[i] += block.off[i] as u32;
+            block.edge[i] = (floor[i] as u8) & (close[i] == 0) as u8 & block.close[i] & block.alive[i];
+            block.close[i] = close[i] as u8;
         }
+        block.trend_before = block.trend;
         // Weights 1 (take the pixel in) or 0 (coast): the choice as
         // arithmetic, which gives the same values and vectorises.
         let take = floor.map(|f| f as f32);
@@ -312,6 +409,10 @@ pub(crate) struct Candidate {
     pub off_before: u32,
     /// The floor colour predicted at the candidate's row.
     pub floor: [f32; 3],
+    /// A sharp step already found to be an obstacle's base (its run was
+    /// followed when it was found); otherwise a pixel off the floor whose
+    /// run the scan is following.
+    pub edge: bool,
 }
 
 const NONE: u32 = u32::MAX;
