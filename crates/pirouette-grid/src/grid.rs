@@ -292,7 +292,8 @@ impl OccupancyGrid {
             let (end, hit) = if r.is_finite() && r <= max_range {
                 (r, true)
             } else {
-                (max_range, false)
+                // Free up to the soft limit, or as far as the bin was seen.
+                (max_range.min(rop.free_reach(i) as f64), false)
             };
             if end <= blind_m {
                 continue;
@@ -379,6 +380,21 @@ mod tests {
             assert_eq!(occupied, 0);
             assert_eq!(g.probability_at(0.95, 0.0), 0.5);
         }
+    }
+
+    #[test]
+    fn nothing_in_sight_frees_only_as_far_as_the_bin_was_seen() {
+        let mut g = OccupancyGrid::new(GridConfig::default()).unwrap();
+        let mut rop = wall_profile(f32::INFINITY);
+        rop.free_m.iter_mut().for_each(|f| *f = 0.3);
+        g.insert_profile(&Pose2::IDENTITY, &rop, 0.1);
+        assert!(g.probability_at(0.25, 0.0) < 0.45, "seen floor is free");
+        assert_eq!(g.probability_at(0.35, 0.0), 0.5, "beyond what was seen: unknown");
+        assert_eq!(
+            g.probability_at(0.8, 0.0),
+            0.5,
+            "short of the soft limit: still unknown"
+        );
     }
 
     #[test]

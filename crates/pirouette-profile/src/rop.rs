@@ -75,6 +75,13 @@ pub struct Rop {
     pub colour: Vec<Option<ColourTag>>,
     /// The soft range limit, metres.
     pub max_range_m: f32,
+    /// How far along each bin the floor was seen, metres: `+∞` (as built
+    /// by [`Rop::empty`]) where as far as the range says; shorter where a
+    /// bin with nothing in sight was seen only nearer (at the sides of a
+    /// camera's view, where only the near floor lies). Read it with
+    /// [`Rop::free_reach`].
+    #[serde(default)]
+    pub free_m: Vec<f32>,
 }
 
 impl Rop {
@@ -119,6 +126,7 @@ impl Rop {
             range_m: vec![f32::NAN; bins],
             colour: vec![None; bins],
             max_range_m,
+            free_m: vec![f32::INFINITY; bins],
         }
     }
 
@@ -165,6 +173,12 @@ impl Rop {
     pub fn reliable(&self, i: usize) -> Option<f32> {
         let r = self.range_m[i];
         (r.is_finite() && r <= self.max_range_m).then_some(r)
+    }
+
+    /// How far along bin `i` the floor was seen, metres (`+∞` when as far
+    /// as its range says; see [`Rop::free_m`]).
+    pub fn free_reach(&self, i: usize) -> f32 {
+        self.free_m.get(i).copied().unwrap_or(f32::INFINITY)
     }
 
     /// The colour tag of bin `i` where its range is reliable.

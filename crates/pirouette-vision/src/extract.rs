@@ -148,8 +148,20 @@ pub struct RopExtractor {
     columns_by_top: Vec<u32>,
     /// Per column: the bearing of its bottom pixel's floor point.
     bottom_bearing: Vec<Option<f64>>,
+    /// Per column: the profile bins its floor pixels fall in, bottom up
+    /// (see [`Crossing`]).
+    crossings: Vec<Vec<Crossing>>,
     /// The floor view's bearing span.
     view_rad: (f64, f64),
+}
+
+/// Where an image column's floor pixels pass through one profile bin: the
+/// topmost (farthest) of them and its range.
+#[derive(Debug, Clone, Copy)]
+struct Crossing {
+    bin: u32,
+    top_row: u32,
+    range_m: f32,
 }
 
 /// A column's floor point at its boundary (or its farthest floor point when
@@ -216,6 +228,29 @@ impl RopExtractor {
             .map(|u| table.floor(u, height - 1).map(|p| p.bearing()))
             .collect();
         let view_rad = table.bearing_span().unwrap_or((0.0, 0.0));
+        let bins = Rop::covering(view_rad.0, view_rad.1, config.bin_width_rad, max_range_m as f32)
+            .expect("bin width checked and the view span is finite");
+        let crossings = (0..width)
+            .map(|u| {
+                let mut out: Vec<Crossing> = Vec::new();
+                for v in (top_floor[u as usize].min(height)..height).rev() {
+                    let Some(p) = table.floor(u, v) else { continue };
+                    let Some(bin) = bins.bin_of(p.bearing()) else {
+                        continue;
+                    };
+                    let here = Crossing {
+                        bin: bin as u32,
+                        top_row: v,
+                        range_m: p.norm() as f32,
+                    };
+                    match out.last_mut() {
+                        Some(last) if last.bin == here.bin => *last = here,
+                        _ => out.push(here),
+                    }
+                }
+                out
+            })
+            .collect();
         Ok(Self {
             table,
             width,
@@ -226,6 +261,7 @@ impl RopExtractor {
             top_floor,
             columns_by_top,
             bottom_bearing,
+            crossings,
             view_rad,
         })
     }
@@ -315,6 +351,22 @@ impl RopExtractor {
                 }
             }
         }
+        // How far each bin's floor is seen: a column's floor below its
+        // boundary passes through bins on the way, and at the sides of the
+        // view its near floor lies at wider bearings than its far floor. A
+        // bin with nothing in sight is free only that far.
+        let mut reach = vec![0f32; rop.len()];
+        for (crossings, b) in self.crossings.iter().zip(boundaries) {
+            let below = match *b {
+                ColumnBoundary::Obstacle { row, .. } => row,
+                ColumnBoundary::Clear { top_row } => top_row as f32 - 1.0,
+                ColumnBoundary::NoFloor => continue,
+            };
+            for c in crossings.iter().filter(|c| c.top_row as f32 > below) {
+                let r = &mut reach[c.bin as usize];
+                *r = r.max(c.range_m);
+            }
+        }
         // Join neighbouring columns that see the same surface, so that bins
         // narrower than a column still get a range.
         for pair in points.windows(2) {
@@ -345,6 +397,13 @@ impl RopExtractor {
             }
         }
         filter::apply(&mut rop, self.config.filter);
+        // A bin that sees a surface is seen as far as that surface; one with
+        // nothing in sight only as far as its floor was seen.
+        for ((free, &range), r) in rop.free_m.iter_mut().zip(&rop.range_m).zip(reach) {
+            if range == f32::INFINITY && r < self.max_range_m {
+                *free = r;
+            }
+        }
         rop
     }
 
@@ -959,6 +1018,31 @@ mod tests {
             (rop.reliable(i).unwrap() - expect).abs() < 0.002,
             "{:?} vs {expect}",
             rop.reliable(i)
+        );
+    }
+
+    /// At the sides of the view only the near floor is seen: a bin there
+    /// with nothing in sight is free only as far as the floor seen in it,
+    /// while the middle bins see free floor to the soft limit.
+    #[test]
+    fn side_bins_are_free_only_as_far_as_they_are_seen() {
+        let c = cam();
+        let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+        let rop = ex
+            .rop(&image::RgbImage::from_pixel(320, 240, image::Rgb([40, 40, 45])))
+            .unwrap();
+        let middle = rop.bin_of(0.0).unwrap();
+        assert_eq!(rop.free_reach(middle), f32::INFINITY);
+        // The widest bearing the top image row sees on the floor: beyond it,
+        // only nearer floor.
+        let top_edge = c.pixel_to_floor(0.0, 0.0).unwrap();
+        let beyond = rop
+            .bin_of(top_edge.y.atan2(top_edge.x) + 2f64.to_radians())
+            .unwrap();
+        let reach = rop.free_reach(beyond);
+        assert!(
+            rop.seen(beyond) && reach > 0.1 && reach < 0.9,
+            "side bin seen to {reach} m"
         );
     }
 
