@@ -650,6 +650,8 @@ fn structure(a: &[Cell], b: &[Cell], shift: i64, sigma: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     /// The cost curve's vectorised sums against the definitions summed one
     /// pair at a time: unseen bins, open floor, colours present and absent,
@@ -657,13 +659,8 @@ mod tests {
     /// that run off both ends.
     #[test]
     fn cost_curve_matches_the_definitions_pair_by_pair() {
-        let mut state = 12345u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) as f32 / (1u64 << 31) as f32
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(12345);
+        let mut next = move || rng.random::<f32>();
         let mut random_cells = |n: usize| -> Vec<Cell> {
             (0..n)
                 .map(|_| {

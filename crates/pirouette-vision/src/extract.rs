@@ -710,6 +710,8 @@ fn noise_sigma(px: &[u8], width: u32, height: u32) -> f32 {
 mod tests {
     use super::*;
     use pirouette_camera::PinholeModel;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     fn cam() -> PinholeModel {
         PinholeModel {
@@ -808,13 +810,8 @@ mod tests {
     /// (some close to the floor's colour).
     #[test]
     fn lock_step_scan_equals_the_column_by_column_oracle() {
-        let mut state = 7u64;
-        let mut rand = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) as f32 / (1u64 << 31) as f32
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut rand = move || rng.random::<f32>();
         let mut compared = 0;
         for width in [320u32, 75] {
             let c = PinholeModel {
