@@ -536,23 +536,7 @@ impl Pair<'_> {
     #[inline(always)]
     fn sums(&self, rho: impl Fn(f32) -> f32) -> Sums {
         let n = self.ia.len();
-        // All slices cut to the same length, so the compiler drops the
-        // bounds checks.
-        let pair = Pair {
-            ia: &self.ia[..n],
-            ib: &self.ib[..n],
-            sa: &self.sa[..n],
-            sb: &self.sb[..n],
-            oa: &self.oa[..n],
-            ob: &self.ob[..n],
-            ra: &self.ra[..n],
-            rb: &self.rb[..n],
-            ga: &self.ga[..n],
-            gb: &self.gb[..n],
-            ca: &self.ca[..n],
-            cb: &self.cb[..n],
-            ..*self
-        };
+        let pair = self;
         assert!(n % LANES == 0, "signals come in whole blocks");
         let mut acc = [[0f32; LANES]; 5];
         // Eight pairs of bins at a time, as fixed-size arrays the compiler
