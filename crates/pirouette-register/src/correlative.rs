@@ -317,16 +317,17 @@ fn lattice_slab(field: &LikelihoodField, cells: &[(i64, i64)], nx: i64, ny: i64)
                 continue;
             }
             let field_row = &values[y as usize * width..][..width];
-            // The translations that land this endpoint inside the field's row.
-            let a_lo = (-x0).max(-nx);
-            let a_hi = (width as i64 - 1 - x0).min(nx);
-            for a in -nx..=nx {
-                let v = if a >= a_lo && a <= a_hi {
-                    field_row[(x0 + a) as usize]
-                } else {
-                    floor
-                };
-                row[(a + nx) as usize] += v;
+            // The translations that land this endpoint inside the field's
+            // row (`a_lo..a_hi`) add its values, slice to slice (a loop the
+            // compiler vectorises); the others add the floor.
+            let a_lo = (-x0).clamp(-nx, nx + 1);
+            let a_hi = (width as i64 - x0).clamp(a_lo, nx + 1);
+            let (left, rest) = row.split_at_mut((a_lo + nx) as usize);
+            let (inside, right) = rest.split_at_mut((a_hi - a_lo) as usize);
+            left.iter_mut().chain(right.iter_mut()).for_each(|v| *v += floor);
+            if !inside.is_empty() {
+                let from = &field_row[(x0 + a_lo) as usize..][..inside.len()];
+                inside.iter_mut().zip(from).for_each(|(v, f)| *v += f);
             }
         }
     }
