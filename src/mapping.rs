@@ -10,7 +10,7 @@ use pirouette_io::{FrameSpec, Motion};
 use pirouette_profile::sweep::SweepConfig;
 use pirouette_profile::Rop;
 use pirouette_register::{
-    endpoints, register, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Registration,
+    endpoints, far_points, register, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Registration,
 };
 use rayon::prelude::*;
 
@@ -29,12 +29,20 @@ pub struct MapConfig {
     /// Standard deviations of verified and commanded turns (the sweep
     /// assembly's).
     pub sweep: SweepConfig,
+    /// Registration also matches ranges beyond the soft limit, up to this
+    /// many times it (1: none). They never enter the grid.
+    pub far_reach: f64,
 }
 
 impl Default for MapConfig {
     /// Default grid, registration, motion and sweep settings; a frame's
     /// heading about a known centre (one unknown, not three) trusts 6
-    /// endpoints on the map (18 cm of edge) instead of 10.
+    /// endpoints on the map (18 cm of edge) instead of 10; registration
+    /// matches ranges out to twice the soft limit. A floor boundary's range
+    /// error grows with the square of its range (one image row spans more
+    /// floor the farther it is): at twice the limit it is four times the
+    /// error at the limit, where profiles err by a few millimetres, so
+    /// still within the likelihood field's 1.5 cm.
     fn default() -> Self {
         let register = RegisterConfig::default();
         Self {
@@ -46,6 +54,7 @@ impl Default for MapConfig {
             register,
             motion: MotionNoise::default(),
             sweep: SweepConfig::default(),
+            far_reach: 2.0,
         }
     }
 }
@@ -155,14 +164,23 @@ impl Placed {
         self.pose * Pose2::new(0.0, 0.0, self.heading_rad[k])
     }
 
-    /// The endpoints of some of the sweep's frames, in its first frame.
-    fn points(&self, sweep: &DatasetSweep, members: &[usize], rops: &[Rop]) -> Vec<Point2> {
+    /// The endpoints and far points of some of the sweep's frames, in its
+    /// first frame.
+    fn points(
+        &self,
+        sweep: &DatasetSweep,
+        members: &[usize],
+        rops: &[Rop],
+        config: &MapConfig,
+    ) -> Vec<Point2> {
         members
             .iter()
             .flat_map(|&k| {
                 let rel = Pose2::new(0.0, 0.0, self.heading_rad[k]);
-                endpoints(&rops[sweep.frames[k]])
+                let rop = &rops[sweep.frames[k]];
+                endpoints(rop)
                     .into_iter()
+                    .chain(far_points(rop, far_reach_m(rop, config)))
                     .map(move |p| rel.transform_point(p))
             })
             .collect()
@@ -175,41 +193,63 @@ impl Placed {
     }
 }
 
-/// The grid of `frames` (manifest index and pose) and the endpoints they
-/// saw, map frame.
-fn grid_of(
-    frames: &[(usize, Pose2)],
-    rops: &[Rop],
-    blind_m: f64,
-    config: &MapConfig,
-) -> Result<(OccupancyGrid, Vec<Point2>)> {
-    let mut grid = OccupancyGrid::new(config.grid.clone())?;
-    let mut points = Vec::new();
-    for &(i, pose) in frames {
-        add_frame(&mut grid, &mut points, &rops[i], pose, blind_m);
+/// How far registration matches a profile's ranges, metres.
+fn far_reach_m(rop: &Rop, config: &MapConfig) -> f64 {
+    rop.max_range_m as f64 * config.far_reach
+}
+
+/// What some frames saw, map frame.
+#[derive(Debug, Clone)]
+struct Seen {
+    /// Their occupancy grid.
+    grid: OccupancyGrid,
+    /// Their endpoints within the soft limit.
+    near: Vec<Point2>,
+    /// Their points beyond it (see [`far_points`]).
+    far: Vec<Point2>,
+}
+
+impl Seen {
+    fn new(config: &MapConfig) -> Result<Self> {
+        Ok(Self {
+            grid: OccupancyGrid::new(config.grid.clone())?,
+            near: Vec::new(),
+            far: Vec::new(),
+        })
     }
-    Ok((grid, points))
+
+    /// Inserts one frame into the grid and its points into the lists.
+    fn add(&mut self, rop: &Rop, pose: Pose2, blind_m: f64, config: &MapConfig) {
+        self.grid.insert_profile(&pose, rop, blind_m);
+        let placed = |p: Point2| pose.transform_point(p);
+        self.near.extend(endpoints(rop).into_iter().map(placed));
+        self.far
+            .extend(far_points(rop, far_reach_m(rop, config)).into_iter().map(placed));
+    }
 }
 
-/// Inserts one frame into a grid and its endpoints into a point list.
-fn add_frame(grid: &mut OccupancyGrid, points: &mut Vec<Point2>, rop: &Rop, pose: Pose2, blind_m: f64) {
-    grid.insert_profile(&pose, rop, blind_m);
-    points.extend(endpoints(rop).into_iter().map(|p| pose.transform_point(p)));
+/// What `frames` (manifest index and pose) saw.
+fn seen_by(frames: &[(usize, Pose2)], rops: &[Rop], blind_m: f64, config: &MapConfig) -> Result<Seen> {
+    let mut seen = Seen::new(config)?;
+    for &(i, pose) in frames {
+        seen.add(&rops[i], pose, blind_m, config);
+    }
+    Ok(seen)
 }
 
-/// The likelihood field of the endpoints that `grid` holds occupied, with
-/// the grid's free floor, within `region` (map-frame corners) if given.
-fn field_in(
-    grid: &OccupancyGrid,
-    points: &[Point2],
-    region: Option<(Point2, Point2)>,
-    config: &MapConfig,
-) -> LikelihoodField {
+/// The likelihood field of what was seen: the endpoints that the grid
+/// holds occupied and every far point (the grid knows nothing of them),
+/// with the grid's free floor, within `region` (map-frame corners) if
+/// given.
+fn field_in(seen: &Seen, region: Option<(Point2, Point2)>, config: &MapConfig) -> LikelihoodField {
     let r = &config.register;
-    let support: Vec<Point2> = points
+    let grid = &seen.grid;
+    let support: Vec<Point2> = seen
+        .near
         .iter()
         .copied()
         .filter(|p| grid.probability_at(p.x, p.y) > r.occupied_threshold)
+        .chain(seen.far.iter().copied())
         .collect();
     match region {
         Some((lo, hi)) => LikelihoodField::from_map_within(
@@ -233,33 +273,33 @@ fn field_in(
     }
 }
 
-/// The likelihood field of the endpoints of `frames` that the grid of the
-/// same frames holds occupied, with the grid's free floor.
+/// The likelihood field of what `frames` saw.
 fn field_of(
     frames: &[(usize, Pose2)],
     rops: &[Rop],
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<LikelihoodField> {
-    let (grid, points) = grid_of(frames, rops, blind_m, config)?;
-    Ok(field_in(&grid, &points, None, config))
+    Ok(field_in(&seen_by(frames, rops, blind_m, config)?, None, config))
 }
 
-/// For each frame of sweep `placed`, the field of `others` (their grid and
-/// endpoints) plus the sweep's other frames, around the sweep's centre:
-/// what anchors that frame's heading.
+/// For each frame of sweep `placed`, the field of what `others` saw plus
+/// the sweep's other frames, around the sweep's centre: what anchors that
+/// frame's heading.
 fn frame_fields(
     placed: &Placed,
     sweep: &DatasetSweep,
-    others: &(OccupancyGrid, Vec<Point2>),
+    others: &Seen,
     rops: &[Rop],
     blind_m: f64,
     config: &MapConfig,
 ) -> Vec<LikelihoodField> {
     let n = sweep.frames.len();
     let c = placed.pose.translation();
-    // Endpoints lie within the soft limit; a frame turns about the centre.
-    let reach = rops[sweep.frames[0]].max_range_m as f64 + FRAME_FIELD_MARGIN_M;
+    // Points lie within the registration's reach; a frame turns about the
+    // centre.
+    let reach = far_reach_m(&rops[sweep.frames[0]], config).max(rops[sweep.frames[0]].max_range_m as f64)
+        + FRAME_FIELD_MARGIN_M;
     let region = (
         Point2::new(c.x - reach, c.y - reach),
         Point2::new(c.x + reach, c.y + reach),
@@ -268,17 +308,11 @@ fn frame_fields(
     (0..n)
         .into_par_iter()
         .map(|k| {
-            let (mut grid, mut points) = others.clone();
+            let mut seen = others.clone();
             for j in (0..n).filter(|&j| j != k) {
-                add_frame(
-                    &mut grid,
-                    &mut points,
-                    &rops[sweep.frames[j]],
-                    placed.frame_pose(j),
-                    blind_m,
-                );
+                seen.add(&rops[sweep.frames[j]], placed.frame_pose(j), blind_m, config);
             }
-            field_in(&grid, &points, Some(region), config)
+            field_in(&seen, Some(region), config)
         })
         .collect()
 }
@@ -333,7 +367,7 @@ fn chain_headings<'f>(
         let heading = cur[k];
         let to_frame = Pose2::new(0.0, 0.0, -heading);
         let pts: Vec<Point2> = placed_now
-            .points(sweep, &[k], rops)
+            .points(sweep, &[k], rops, config)
             .into_iter()
             .map(|p| to_frame.transform_point(p))
             .collect();
@@ -420,7 +454,12 @@ fn place_sweep(
 ) -> Result<()> {
     let all: Vec<usize> = (0..sweep.frames.len()).collect();
     for _ in 0..2 {
-        let reg = register(field, &placed.points(sweep, &all, rops), prior, &config.register)?;
+        let reg = register(
+            field,
+            &placed.points(sweep, &all, rops, config),
+            prior,
+            &config.register,
+        )?;
         placed.pose = reg.pose;
         placed.covariance = reg.covariance;
         placed.registration = Some(reg);
@@ -436,8 +475,10 @@ fn place_sweep(
 ///
 /// Each sweep after the first starts from the pose its forward move
 /// predicts from the previous sweep's last frame and is registered against
-/// the endpoints mapped so far (those the grid holds occupied, with the
-/// grid's free floor); then its frames' headings are solved about its
+/// what was seen so far: the endpoints the grid holds occupied, the grid's
+/// free floor, and the ranges beyond the soft limit, which never enter the
+/// grid but pin headings where little is near ([`MapConfig::far_reach`]);
+/// then its frames' headings are solved about its
 /// centre from their turns (verified ones to a match's accuracy, fallbacks
 /// to a command's) and their own registrations. Then every sweep is placed
 /// again, twice, against the map of all the others, which corrects the
@@ -489,9 +530,9 @@ pub fn build_map(
                     (0..other.frames.len()).map(move |k| (other.frames[k], p.frame_pose(k)))
                 })
                 .collect();
-            let others = grid_of(&others, rops, blind_m, config)?;
+            let others = seen_by(&others, rops, blind_m, config)?;
             if sweeps.len() > 1 {
-                let field = field_in(&others.0, &others.1, None, config);
+                let field = field_in(&others, None, config);
                 // Every sweep may move, the first too (the map frame is set
                 // at the end), but only locally: the first pass found the
                 // basin.

@@ -88,6 +88,21 @@ fn registered_sweeps_map_a_rendered_field_to_a_centimetre() {
 }
 
 #[test]
+fn a_rendered_room_maps_within_the_office_targets() {
+    // Its soft limit (1 m) leaves most walls of the 4 × 3 m room beyond
+    // sight for the map: the sweeps are registered on what lies farther.
+    let root = rendered("room-multi", 17);
+    let dir = tempfile::tempdir().unwrap();
+    let r = map_and_eval(&root, &dir.path().join("map"));
+    eprintln!("{r}");
+    let ate = num(&r, &["trajectory", "ate_aligned_m"]);
+    assert!(ate <= 0.04, "ATE {ate} m");
+    assert!(ate * 10.0 < num(&r, &["commanded", "ate_aligned_m"]), "{r}");
+    assert!(num(&r, &["map", "f1"]) >= 0.9, "{}", r["map"]);
+    assert!(num(&r, &["f1_ratio"]) >= 0.95, "{r}");
+}
+
+#[test]
 fn a_single_pirouette_anchors_its_frames_on_each_other() {
     // No other sweep to register against: the frames' headings come from
     // the turns and from each frame against the map of the others.
@@ -110,15 +125,15 @@ fn shared_datasets_map_far_better_than_the_commands() {
     };
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
-    // The office is far from its targets (see BENCHMARKS.md): it is held
-    // to beating the commands.
-    for (name, max_ate_m, min_f1) in [("field-multi", 0.02, 0.9), ("office-multi", 0.2, 0.4)] {
+    // The targets: ATE within 2 cm on the field and 4 cm in the
+    // office, F1 at least 0.9.
+    for (name, max_ate_m, min_f1) in [("field-multi", 0.02, 0.9), ("office-multi", 0.04, 0.9)] {
         let root = shared.join("datasets").join(name);
         let r = map_and_eval(&root, &dir.path().join(name));
         eprintln!("{name}: {r}");
         let ate = num(&r, &["trajectory", "ate_aligned_m"]);
         assert!(ate <= max_ate_m, "{name}: ATE {ate} m");
-        assert!(ate * 2.0 < num(&r, &["commanded", "ate_aligned_m"]), "{name}");
+        assert!(ate * 10.0 < num(&r, &["commanded", "ate_aligned_m"]), "{name}");
         assert!(num(&r, &["map", "f1"]) >= min_f1, "{name}: {}", r["map"]);
         checked += 1;
     }

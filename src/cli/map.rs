@@ -19,6 +19,11 @@ pub struct MapOptions {
     /// Side of a map cell, metres.
     #[arg(long, default_value_t = 0.01)]
     resolution: f64,
+    /// Registration also matches ranges beyond the soft limit, up to this
+    /// many times it (1: only the ranges the map takes). They never enter
+    /// the map.
+    #[arg(long, default_value_t = MapConfig::default().far_reach)]
+    far_reach: f64,
 }
 
 impl Default for MapOptions {
@@ -38,12 +43,16 @@ impl MapOptions {
         if !(self.resolution.is_finite() && self.resolution >= 0.001 && self.resolution <= 1.0) {
             bail!("--resolution {} m is outside [0.001, 1]", self.resolution);
         }
+        if !(self.far_reach.is_finite() && self.far_reach >= 1.0) {
+            bail!("--far-reach {} is not a factor of at least 1", self.far_reach);
+        }
         Ok(MapConfig {
             grid: GridConfig {
                 resolution_m: self.resolution,
                 ..GridConfig::default()
             },
             sweep: sweep.clone(),
+            far_reach: self.far_reach,
             ..MapConfig::default()
         })
     }

@@ -54,3 +54,45 @@ pub fn endpoints(rop: &Rop) -> Vec<Point2> {
         })
         .collect()
 }
+
+/// The points of a profile's ranges beyond its soft limit, up to
+/// `reach_m`, in the profile's own frame, in bin order.
+///
+/// The soft limit is a rule for the map: a range beyond it never marks an
+/// obstacle there. Its bearing and (less precisely) its distance still say
+/// where the robot stands, and far points are what pins a heading when
+/// the near floor is open: a heading error moves a point in proportion to
+/// its range.
+pub fn far_points(rop: &Rop, reach_m: f64) -> Vec<Point2> {
+    (0..rop.len())
+        .filter_map(|i| {
+            let r = rop.range_m[i];
+            (r.is_finite() && r > rop.max_range_m && r as f64 <= reach_m)
+                .then(|| Point2::from_polar(r as f64, rop.bin_centre_rad(i)))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn near_and_far_points_split_a_profile_at_its_soft_limit() {
+        // Bins 10° wide from 0°, soft limit 1 m.
+        let mut rop = Rop::empty(0.0, 10f64.to_radians(), 6, 1.0);
+        rop.range_m = vec![0.5, 1.0, 1.5, 2.5, f32::INFINITY, f32::NAN];
+        let near = endpoints(&rop);
+        let far = far_points(&rop, 2.0);
+        let at = |r: f64, deg: f64| Point2::from_polar(r, deg.to_radians());
+        let close = |a: &[Point2], b: &[Point2]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(p, q)| (p.x - q.x).hypot(p.y - q.y) < 1e-6)
+        };
+        assert!(close(&near, &[at(0.5, 5.0), at(1.0, 15.0)]), "{near:?}");
+        // Beyond the limit and within reach only: 2.5 m is out of reach,
+        // nothing in sight and unseen bins are no points.
+        assert!(close(&far, &[at(1.5, 25.0)]), "{far:?}");
+        assert!(close(&far_points(&rop, 3.0), &[at(1.5, 25.0), at(2.5, 35.0)]));
+        assert!(far_points(&rop, 1.0).is_empty());
+    }
+}
