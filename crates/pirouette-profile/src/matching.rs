@@ -9,7 +9,11 @@
 //! Each bin is compared as inverse range (`1/r`; "nothing in sight" is 0):
 //! its noise is about the same near and far, ranges beyond the soft limit
 //! still tell bearing with a weight that falls with distance, and open
-//! floor compares as equal. Where both bins carry a colour tag, their
+//! floor compares as equal. A bin with nothing in sight whose floor was
+//! seen only so far ([`Rop::free_reach`], at the sides of a camera's view)
+//! says only that any obstacle lies beyond that: it is the interval of
+//! inverse ranges up to the reach's, and two bins differ by the gap
+//! between their intervals. Where both bins carry a colour tag, their
 //! chromaticities are compared too.
 
 use crate::Rop;
@@ -159,6 +163,10 @@ pub struct TurnEstimate {
 struct Cell {
     /// Inverse range (0: nothing in sight); NaN: not seen.
     inv: f32,
+    /// The largest inverse range the bin allows: `inv`, but where nothing
+    /// was in sight as far as the floor was seen, the inverse of that
+    /// reach.
+    inv_hi: f32,
     /// Chromaticity shares (r, g) where the bin has a colour.
     chroma: Option<[f32; 2]>,
 }
@@ -169,6 +177,9 @@ struct Cell {
 struct Signals {
     /// Inverse range; 0 where nothing is in sight or the bin was not seen.
     inv: Vec<f32>,
+    /// The largest inverse range each bin allows (see [`Cell`]); 0 where
+    /// the bin was not seen.
+    inv_hi: Vec<f32>,
     /// 1 where the bin was seen.
     seen: Vec<f32>,
     /// 1 where the bin sees an obstacle (inverse range above 0).
@@ -187,6 +198,7 @@ impl Signals {
         let n = (range.end - range.start).max(0) as usize;
         let mut s = Signals {
             inv: vec![0.0; n],
+            inv_hi: vec![0.0; n],
             seen: vec![0.0; n],
             obstacle: vec![0.0; n],
             chroma_r: vec![0.0; n],
@@ -202,6 +214,7 @@ impl Signals {
                 continue;
             }
             s.inv[t] = c.inv;
+            s.inv_hi[t] = c.inv_hi;
             s.seen[t] = 1.0;
             s.obstacle[t] = weight(c.inv > 0.0);
             if let Some([r, g]) = c.chroma {
@@ -225,8 +238,14 @@ fn cells(rop: &Rop) -> Vec<Cell> {
             } else {
                 1.0 / r.max(1e-3)
             };
+            let inv_hi = if r == f32::INFINITY {
+                1.0 / rop.free_reach(i).max(1e-3)
+            } else {
+                inv
+            };
             Cell {
                 inv,
+                inv_hi,
                 chroma: rop.colour[i].filter(|_| r.is_finite()).map(|c| c.chromaticity()),
             }
         })
@@ -245,6 +264,19 @@ struct CostCurve {
     /// nothing agree trivially and would favour larger overlaps.
     informative: Vec<usize>,
     colour_pairs: Vec<usize>,
+}
+
+impl CostCurve {
+    /// Whether shift `j` can be weighed at all: its overlap is at least
+    /// `min_overlap` bins, and some pair in it could disagree (unless no
+    /// shift has such a pair: open floor, which the structure test
+    /// catches). A shift that compares nothing contradicts nothing, which
+    /// is no evidence for it: where one profile saw open floor only near,
+    /// a shift can put every obstacle of the other beyond that floor.
+    fn comparable(&self, j: usize, min_overlap: usize) -> bool {
+        self.overlap[j] >= min_overlap
+            && (self.informative[j] > 0 || self.informative.iter().all(|&n| n == 0))
+    }
 }
 
 /// Verifies a turn: the angle between `before` and `after` nearest to
@@ -275,7 +307,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     let (k_lo, k_hi) = (k_cmd - k_win, k_cmd + k_win);
     let best_of = |curve: &CostCurve| {
         (0..curve.cost.len())
-            .filter(|&j| curve.overlap[j] >= min_overlap)
+            .filter(|&j| curve.comparable(j, min_overlap))
             .min_by(|&x, &y| curve.cost[x].total_cmp(&curve.cost[y]))
     };
     // First pass with the nominal noise; then the noise measured in the
@@ -300,10 +332,13 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     } else {
         cost_curve(&sa, &sb, k_lo, k_hi, sigma, config)
     };
-    let valid = |j: usize| curve.overlap[j] >= min_overlap;
     let Some(best) = best_of(&curve) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
     };
+    // A rival must rest on at least half as many informative pairs as the
+    // best: a mean cost over far fewer pairs is judged on too little.
+    let valid =
+        |j: usize| curve.comparable(j, min_overlap) && 2 * curve.informative[j] >= curve.informative[best];
     let k_best = curve.k_lo + best as i64;
     let overlap_bins = curve.overlap[best];
 
@@ -375,6 +410,20 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     }
 }
 
+/// The gap between the inverse-range intervals of two seen bins (see
+/// [`Cell`]): for two ranges, the absolute difference of their inverses.
+fn gap(a: &Cell, b: &Cell) -> f32 {
+    (a.inv - b.inv_hi).max(b.inv - a.inv_hi).max(0.0)
+}
+
+/// Whether a pair of seen bins can disagree: one of them sees an obstacle
+/// within the other's reach. Two bins with nothing in sight agree
+/// trivially, and an obstacle beyond the floor the other bin saw is no
+/// evidence either way.
+fn informative(a: &Cell, b: &Cell) -> bool {
+    (a.inv > 0.0 && a.inv >= b.inv_hi) || (b.inv > 0.0 && b.inv >= a.inv_hi)
+}
+
 /// Standard deviation of one bin's cost when the two profiles agree but
 /// for noise (their difference is normal with variance 2 in units of σ).
 fn noise_cost_sd(measure: Measure) -> f64 {
@@ -397,8 +446,7 @@ fn residual_sigma(a: &[Cell], b: &[Cell], shift: i64) -> Option<f32> {
         .filter_map(|(i, ca)| {
             let j = i as i64 + shift;
             let cb = *b.get(usize::try_from(j).ok()?)?;
-            (!ca.inv.is_nan() && !cb.inv.is_nan() && (ca.inv > 0.0 || cb.inv > 0.0))
-                .then(|| (ca.inv - cb.inv).abs())
+            (!ca.inv.is_nan() && !cb.inv.is_nan() && informative(ca, &cb)).then(|| gap(ca, &cb))
         })
         .collect();
     if r.len() < 5 {
@@ -439,6 +487,8 @@ fn cost_curve(
         let pair = Pair {
             ia: &sa.inv,
             ib: &sb.inv[b.clone()],
+            ha: &sa.inv_hi,
+            hb: &sb.inv_hi[b.clone()],
             sa: &sa.seen,
             sb: &sb.seen[b.clone()],
             oa: &sa.obstacle,
@@ -495,6 +545,8 @@ fn cost_curve(
 struct Pair<'a> {
     ia: &'a [f32],
     ib: &'a [f32],
+    ha: &'a [f32],
+    hb: &'a [f32],
     sa: &'a [f32],
     sb: &'a [f32],
     oa: &'a [f32],
@@ -552,6 +604,7 @@ impl Pair<'_> {
                 block(pair.sa, base),
                 block(pair.sb, base),
             );
+            let (ha, hb) = (block(pair.ha, base), block(pair.hb, base));
             let (oa, ob, ca, cb) = (
                 block(pair.oa, base),
                 block(pair.ob, base),
@@ -566,10 +619,16 @@ impl Pair<'_> {
             );
             for l in 0..LANES {
                 let seen = sa[l] * sb[l];
-                let info = seen * oa[l].max(ob[l]);
+                // Informative: a bin sees an obstacle within the other's
+                // reach (so the other would have seen it).
+                let within = |o: f32, inv: f32, hi: f32| if inv >= hi { o } else { 0.0 };
+                let info = seen * within(oa[l], ia[l], hb[l]).max(within(ob[l], ib[l], ha[l]));
                 let coloured = seen * ca[l] * cb[l];
                 let e = (ra[l] - rb[l]).abs().max((ga[l] - gb[l]).abs()) * pair.chroma_s;
-                acc[0][l] += info * rho((ia[l] - ib[l]) * pair.inv_s);
+                // The gap between the two intervals (for two ranges, their
+                // difference).
+                let gap = (ia[l] - hb[l]).max(ib[l] - ha[l]).max(0.0);
+                acc[0][l] += info * rho(gap * pair.inv_s);
                 acc[1][l] += coloured * rho(e);
                 acc[2][l] += seen;
                 acc[3][l] += info;
@@ -638,7 +697,8 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     /// The cost curve's vectorised sums against the definitions summed one
-    /// pair at a time: unseen bins, open floor, colours present and absent,
+    /// pair at a time: unseen bins, open floor (seen all the way or only
+    /// up to a reach), colours present and absent,
     /// a profile length that is not a whole number of blocks, and shifts
     /// that run off both ends.
     #[test]
@@ -658,7 +718,13 @@ mod tests {
                     };
                     let chroma =
                         (inv > 0.0 && next() < 0.6).then(|| [0.3 + 0.1 * next(), 0.3 + 0.1 * next()]);
-                    Cell { inv, chroma }
+                    // Open floor seen all the way, or only up to a reach.
+                    let inv_hi = if inv == 0.0 && next() < 0.5 {
+                        1.0 + 3.0 * next()
+                    } else {
+                        inv
+                    };
+                    Cell { inv, inv_hi, chroma }
                 })
                 .collect()
         };
@@ -687,9 +753,12 @@ mod tests {
                     continue;
                 }
                 seen += 1;
-                if ca.inv > 0.0 || cb.inv > 0.0 {
+                if (ca.inv > 0.0 && ca.inv >= cb.inv_hi) || (cb.inv > 0.0 && cb.inv >= ca.inv_hi) {
                     info += 1;
-                    range += rho((ca.inv - cb.inv) as f64 / sigma as f64);
+                    // The distance between the bins' intervals of inverse
+                    // range.
+                    let d = (ca.inv.max(cb.inv) - ca.inv_hi.min(cb.inv_hi)).max(0.0);
+                    range += rho(d as f64 / sigma as f64);
                 }
                 if let (Some(x), Some(y)) = (ca.chroma, cb.chroma) {
                     coloured += 1;
@@ -782,6 +851,38 @@ mod tests {
             }
         }
         assert_eq!(checked, 20);
+    }
+
+    /// A camera sees only the near floor at the sides of its view: there a
+    /// bin with nothing in sight says nothing of what lies farther.
+    fn view_with_short_sides(heading_deg: f64, bin_deg: f64, side_deg: f64, reach_m: f32) -> Rop {
+        let mut rop = view(heading_deg, bin_deg);
+        let side = (side_deg / bin_deg).round() as usize;
+        let n = rop.len();
+        for i in (0..side).chain(n - side..n) {
+            if rop.range_m[i] > reach_m {
+                rop.range_m[i] = f32::INFINITY;
+                rop.free_m[i] = reach_m;
+            }
+        }
+        rop
+    }
+
+    #[test]
+    fn open_floor_seen_only_near_does_not_contradict_far_walls() {
+        // At the sides of each view, the floor is seen to 0.3 m only, and
+        // the walls there (0.35-1.4 m) are out of sight in one view but in
+        // the middle of the other.
+        for (h, turn) in [(60.0, 27.3), (100.0, 32.6), (160.0, 25.0)] {
+            let (before, after) = (
+                view_with_short_sides(h, 0.25, 5.0, 0.3),
+                view_with_short_sides(h + turn, 0.25, 5.0, 0.3),
+            );
+            let est = match_turn(&before, &after, 30f64.to_radians(), &MatchConfig::default());
+            assert!(!est.fallback, "h={h} turn={turn}: {est:?}");
+            let err = (est.turn_rad.to_degrees() - turn).abs();
+            assert!(err < 0.3, "h={h} turn={turn}: got {}", est.turn_rad.to_degrees());
+        }
     }
 
     #[test]
