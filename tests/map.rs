@@ -129,8 +129,9 @@ fn shared_datasets_map_far_better_than_the_commands() {
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
     // The targets: ATE within 2 cm on the field and 4 cm in the
-    // office, F1 at least 0.9. The office's F1 is held to 0.85: it
-    // measures 0.899 (see BENCHMARKS.md), a hair below the target.
+    // office, F1 at least 0.9. The office's F1 is held to 0.85: in the
+    // map frame it measures 0.87 (0.96 after a best-fit alignment), below
+    // the target (see BENCHMARKS.md).
     for (name, max_ate_m, min_f1) in [("field-multi", 0.02, 0.9), ("office-multi", 0.04, 0.85)] {
         let root = shared.join("datasets").join(name);
         let r = map_and_eval(&root, &dir.path().join(name));
