@@ -408,7 +408,14 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         Evidence::Range
     };
     let turn = if config.turn_shift_m > 0.0 {
-        refine_with_shift(before, after, k * w, sigma as f64, config.turn_shift_m)
+        refine_with_shift(
+            before,
+            after,
+            k * w,
+            sigma as f64,
+            config.turn_shift_m,
+            config.basin_rad,
+        )
     } else {
         k * w
     };
@@ -428,16 +435,22 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
 /// that centre, and the profiles see the parallax. Left to the turn alone,
 /// it bends the estimate on a slanted wall, where a shift toward the wall
 /// and a rotation look alike. Every finite range of `after` is moved into
-/// `before`'s frame and compared with `before`'s bin there in inverse
-/// range, in units of `sigma_inv` with the matcher's robust truncation
-/// (against a bin with nothing in sight, only as far as that bin's floor
-/// was seen), plus the prior; a pattern search from `theta0` and no shift
-/// down to 0.005°.
+/// `before`'s frame and compared with `before` there in inverse range, in
+/// units of `sigma_inv` with the matcher's robust truncation, plus the
+/// prior; Gauss-Newton from `theta0` and no shift. The refinement stays
+/// within `basin_rad` of `theta0` (the basin the match verified), else
+/// `theta0` is kept.
 ///
-/// The shifts are small beside the ranges, so a point's bearing and
-/// inverse range are moved to first order in the shift, around its
-/// bearing at `theta0`.
-fn refine_with_shift(before: &Rop, after: &Rop, theta0: f64, sigma_inv: f64, shift_sigma_m: f64) -> f64 {
+/// The shifts are small beside the ranges, so a point's bearing is moved
+/// to first order in the shift, around its bearing at `theta0`.
+fn refine_with_shift(
+    before: &Rop,
+    after: &Rop,
+    theta0: f64,
+    sigma_inv: f64,
+    shift_sigma_m: f64,
+    basin_rad: f64,
+) -> f64 {
     struct Point {
         /// Bearing in `before`'s frame at `theta0`.
         bearing: f64,
@@ -555,7 +568,11 @@ fn refine_with_shift(before: &Rop, after: &Rop, theta0: f64, sigma_inv: f64, shi
             break;
         }
     }
-    theta0 + x[0]
+    if x[0].abs() <= basin_rad {
+        theta0 + x[0]
+    } else {
+        theta0
+    }
 }
 
 /// The solution of the 3 × 3 system `a·x = b` (Cramer's rule), `None` when
