@@ -169,4 +169,18 @@ fn map_and_eval_refuse_bad_input_with_the_file_named() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("poses.json"), "{err}");
+
+    // A reach short of the soft limit itself.
+    let o = pirouette(&[
+        "map",
+        root.to_str().unwrap(),
+        "--out",
+        dir.path().join("r").to_str().unwrap(),
+        "--far-reach",
+        "0.5",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--far-reach 0.5"), "{err}");
 }

@@ -39,13 +39,19 @@ impl Default for MapOptions {
 }
 
 impl MapOptions {
-    fn config(&self, sweep: &pirouette::profile::sweep::SweepConfig) -> Result<MapConfig> {
+    /// The mapping settings' own checks (before any image is read).
+    fn check(&self) -> Result<()> {
         if !(self.resolution.is_finite() && self.resolution >= 0.001 && self.resolution <= 1.0) {
             bail!("--resolution {} m is outside [0.001, 1]", self.resolution);
         }
         if !(self.far_reach.is_finite() && self.far_reach >= 1.0) {
             bail!("--far-reach {} is not a factor of at least 1", self.far_reach);
         }
+        Ok(())
+    }
+
+    fn config(&self, sweep: &pirouette::profile::sweep::SweepConfig) -> Result<MapConfig> {
+        self.check()?;
         Ok(MapConfig {
             grid: GridConfig {
                 resolution_m: self.resolution,
@@ -122,6 +128,7 @@ fn open_camera_dataset(path: &Path) -> Result<Dataset> {
 
 /// Profiles every frame and assembles the sweeps, with a progress bar.
 pub fn profile_dataset(ds: &Dataset, options: &MapOptions) -> Result<Profiled> {
+    options.check()?;
     let run = options.sweep.run_all(ds)?;
     let config = options.config(&run.config)?;
     let blind_m = run
