@@ -267,7 +267,7 @@ struct CostCurve {
     cost: Vec<f64>,
     /// Pairs of seen bins.
     overlap: Vec<usize>,
-    /// Pairs where at least one bin sees an obstacle: pairs that both see
+    /// Pairs that can disagree (see [`informative`]): pairs that both see
     /// nothing agree trivially and would favour larger overlaps.
     informative: Vec<usize>,
     colour_pairs: Vec<usize>,
@@ -763,9 +763,11 @@ const LANES: usize = 8;
 
 impl Pair<'_> {
     /// The costs over the overlap, one monomorphised loop per measure:
-    /// - a pair of bins counts when both were seen; its range cost when
-    ///   either sees an obstacle (two bins that both see nothing agree
-    ///   trivially);
+    /// - a pair of bins counts when both were seen; its range cost, the gap
+    ///   between the bins' intervals of inverse range, when one sees an
+    ///   obstacle within the other's reach (two bins that both see nothing
+    ///   agree trivially, and an obstacle beyond the floor the other saw
+    ///   is no evidence);
     /// - its colour cost when both have a colour: the larger difference of
     ///   the two chromaticity shares.
     ///
