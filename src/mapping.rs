@@ -3,7 +3,7 @@
 
 use crate::pipeline::DatasetSweep;
 use anyhow::{bail, Result};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::{GridConfig, OccupancyGrid};
 use pirouette_io::{FrameSpec, Motion};
@@ -157,6 +157,11 @@ impl Placed {
             registration: None,
             covariance: Matrix3::zeros(),
         }
+    }
+
+    /// The sweep's `k`-th frame relative to its pose.
+    fn rel(&self, k: usize) -> Pose2 {
+        Pose2::new(0.0, 0.0, self.heading_rad[k])
     }
 
     /// `map_from_robot` of the sweep's `k`-th frame.
@@ -321,8 +326,14 @@ fn frame_fields(
 /// centre, metres.
 const FRAME_FIELD_MARGIN_M: f64 = 0.2;
 
-/// Passes of every sweep against the map of the others.
-pub const REFINE_PASSES: usize = 2;
+/// Passes of every sweep against the map of the others before the joint
+/// adjustment (one more follows it).
+const REFINE_PASSES: usize = 2;
+
+/// How many times [`build_map`] reports progress for `sweeps` sweeps.
+pub fn progress_steps(sweeps: usize) -> usize {
+    sweeps + REFINE_PASSES + 1
+}
 
 /// How far a sweep may move against the map of the others in refinement,
 /// metres (one standard deviation; its heading as far as one commanded
@@ -468,10 +479,53 @@ fn place_sweep(
     Ok(())
 }
 
+/// Places every sweep again against the map of all the others, which
+/// corrects the first sweeps with what later ones saw, and anchors each
+/// frame's heading on the map of everything but itself (for a single
+/// pirouette, its sweep's other frames).
+fn refine_pass(
+    placed: &mut [Placed],
+    sweeps: &[DatasetSweep],
+    rops: &[Rop],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Result<()> {
+    for (s, sweep) in sweeps.iter().enumerate() {
+        let others: Vec<(usize, Pose2)> = sweeps
+            .iter()
+            .zip(placed.iter())
+            .enumerate()
+            .filter(|&(o, _)| o != s)
+            .flat_map(|(_, (other, p))| {
+                (0..other.frames.len()).map(move |k| (other.frames[k], p.frame_pose(k)))
+            })
+            .collect();
+        let others = seen_by(&others, rops, blind_m, config)?;
+        if sweeps.len() > 1 {
+            let field = field_in(&others, None, config);
+            // Every sweep may move, the first too (the map frame is set at
+            // the end), but only locally: the first pass found the basin.
+            let prior = PosePrior {
+                mean: placed[s].pose,
+                sigma_forward_m: REFINE_SHIFT_M,
+                sigma_left_m: REFINE_SHIFT_M,
+                sigma_theta_rad: config.sweep.commanded_sigma_rad,
+            };
+            place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
+        }
+        // Each frame against the others and the rest of its own sweep (for
+        // a single pirouette, its own sweep alone).
+        let fields = frame_fields(&placed[s], sweep, &others, rops, blind_m, config);
+        chain_headings(&mut placed[s], sweep, rops, |k| &fields[k], config)?;
+    }
+    Ok(())
+}
+
 /// Builds the map of a dataset from its frames' profiles and assembled
 /// sweeps. `frames` are the manifest's frames (for the commanded forward
-/// moves), `blind_m` the camera's blind distance. `progress` is called once
-/// per sweep placed and once per refinement pass.
+/// moves), `blind_m` the camera's blind distance. `progress` is called
+/// [`progress_steps`] times: once per sweep placed, once per refinement
+/// pass and once for the joint adjustment.
 ///
 /// Each sweep after the first starts from the pose its forward move
 /// predicts from the previous sweep's last frame and is registered against
@@ -484,8 +538,12 @@ fn place_sweep(
 /// again, twice, against the map of all the others, which corrects the
 /// first sweeps with what later ones saw, and each frame's heading is
 /// anchored on the map of everything but itself (for a single pirouette,
-/// its sweep's other frames). The map frame is set last: the first frame
-/// is `(0, 0, 0)`.
+/// its sweep's other frames). One sweep at a time cannot turn a group of
+/// sweeps that agree with each other but not with the rest, so then the
+/// sweeps are adjusted jointly, each a rigid whole, to agree with every
+/// pair's match and the forward moves, and placed once more against the
+/// map of the others. The map frame is set last: the first frame is
+/// `(0, 0, 0)`.
 pub fn build_map(
     frames: &[FrameSpec],
     rops: &[Rop],
@@ -520,37 +578,18 @@ pub fn build_map(
 
     // Each sweep against the map of all the others.
     for _pass in 0..REFINE_PASSES {
-        for (s, sweep) in sweeps.iter().enumerate() {
-            let others: Vec<(usize, Pose2)> = sweeps
-                .iter()
-                .zip(&placed)
-                .enumerate()
-                .filter(|&(o, _)| o != s)
-                .flat_map(|(_, (other, p))| {
-                    (0..other.frames.len()).map(move |k| (other.frames[k], p.frame_pose(k)))
-                })
-                .collect();
-            let others = seen_by(&others, rops, blind_m, config)?;
-            if sweeps.len() > 1 {
-                let field = field_in(&others, None, config);
-                // Every sweep may move, the first too (the map frame is set
-                // at the end), but only locally: the first pass found the
-                // basin.
-                let prior = PosePrior {
-                    mean: placed[s].pose,
-                    sigma_forward_m: REFINE_SHIFT_M,
-                    sigma_left_m: REFINE_SHIFT_M,
-                    sigma_theta_rad: config.sweep.commanded_sigma_rad,
-                };
-                place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
-            }
-            // Each frame against the others and the rest of its own sweep
-            // (for a single pirouette, its own sweep alone).
-            let fields = frame_fields(&placed[s], sweep, &others, rops, blind_m, config);
-            chain_headings(&mut placed[s], sweep, rops, |k| &fields[k], config)?;
-        }
+        refine_pass(&mut placed, sweeps, rops, blind_m, config)?;
         progress();
     }
+    // The sweeps moved together to agree with every pair's match, then
+    // each placed once more against that map.
+    if sweeps.len() > 1 {
+        let mut edges = sweep_edges(&placed, sweeps, rops, blind_m, config)?;
+        edges.extend(motion_edges(&placed, sweeps, frames, config));
+        adjust_sweeps(&mut placed, edges);
+        refine_pass(&mut placed, sweeps, rops, blind_m, config)?;
+    }
+    progress();
 
     // The first frame's heading was refined with the rest; the map frame
     // is where it ended up.
@@ -596,6 +635,223 @@ pub fn build_map(
         sweeps: out,
     })
 }
+
+/// A relative pose measured between two sweeps: sweep `j`'s pose in sweep
+/// `i`'s frame, and its information in `i`'s `(x, y, θ)`.
+#[derive(Debug, Clone, Copy)]
+struct SweepEdge {
+    i: usize,
+    j: usize,
+    z: Pose2,
+    info: Matrix3<f64>,
+}
+
+impl SweepEdge {
+    /// The edge's residual at sweep poses `xi`, `xj`.
+    fn residual(&self, xi: &Pose2, xj: &Pose2) -> Vector3<f64> {
+        let pred = xi.between(xj);
+        Vector3::new(
+            pred.x - self.z.x,
+            pred.y - self.z.y,
+            pirouette_geom::wrap_angle(pred.theta - self.z.theta),
+        )
+    }
+
+    fn chi2(&self, poses: &[Pose2]) -> f64 {
+        let r = self.residual(&poses[self.i], &poses[self.j]);
+        (r.transpose() * self.info * r)[0]
+    }
+}
+
+/// How far apart two sweeps are matched in the adjustment, at most
+/// (metres, one standard deviation each way; their heading as far as one
+/// commanded turn errs): the sweeps were already placed against each
+/// other's maps, so the match looks near where they are.
+const PAIR_SHIFT_M: f64 = 0.05;
+
+/// An edge whose squared Mahalanobis residual exceeds this after the first
+/// solve (three degrees of freedom, 99.9 %) is dropped: a wrong match.
+const EDGE_GATE: f64 = 16.27;
+
+/// The measured relative poses between every two sweeps whose views
+/// overlap: each sweep (its frames as the heading chain placed them)
+/// registered against what each other sweep alone saw, both ways.
+fn sweep_edges(
+    placed: &[Placed],
+    sweeps: &[DatasetSweep],
+    rops: &[Rop],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Result<Vec<SweepEdge>> {
+    let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
+    let own: Vec<(LikelihoodField, Vec<Point2>)> = (0..sweeps.len())
+        .into_par_iter()
+        .map(|s| -> Result<_> {
+            let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
+                .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
+                .collect();
+            let seen = seen_by(&frames, rops, blind_m, config)?;
+            Ok((
+                field_in(&seen, None, config),
+                placed[s].points(&sweeps[s], &all(s), rops, config),
+            ))
+        })
+        .collect::<Result<_>>()?;
+    // Sweeps farther apart than twice the registration's reach see nothing
+    // in common.
+    let reach = |s: usize| {
+        let rop = &rops[sweeps[s].frames[0]];
+        far_reach_m(rop, config).max(rop.max_range_m as f64)
+    };
+    let near = |i: usize, j: usize| {
+        let (a, b) = (placed[i].pose, placed[j].pose);
+        (a.x - b.x).hypot(a.y - b.y) <= reach(i) + reach(j)
+    };
+    let pairs: Vec<(usize, usize)> = (0..sweeps.len())
+        .flat_map(|i| (0..sweeps.len()).filter(move |&j| j != i).map(move |j| (i, j)))
+        .filter(|&(i, j)| near(i, j))
+        .collect();
+    let edges = pairs
+        .into_par_iter()
+        .map(|(i, j)| -> Result<Option<SweepEdge>> {
+            let prior = PosePrior {
+                mean: placed[i].pose.between(&placed[j].pose),
+                sigma_forward_m: PAIR_SHIFT_M,
+                sigma_left_m: PAIR_SHIFT_M,
+                sigma_theta_rad: config.sweep.commanded_sigma_rad,
+            };
+            let reg = register(&own[i].0, &own[j].1, &prior, &config.register)?;
+            Ok(reg.accepted.then(|| SweepEdge {
+                i,
+                j,
+                z: reg.pose,
+                info: reg.covariance.try_inverse().unwrap_or_else(Matrix3::zeros),
+            }))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(edges.into_iter().flatten().collect())
+}
+
+/// The forward moves between consecutive sweeps as edges: where the
+/// previous sweep's last frame and the move put the next sweep's first
+/// frame.
+fn motion_edges(
+    placed: &[Placed],
+    sweeps: &[DatasetSweep],
+    frames: &[FrameSpec],
+    config: &MapConfig,
+) -> Vec<SweepEdge> {
+    (1..sweeps.len())
+        .map(|s| {
+            let prev = &placed[s - 1];
+            let last = sweeps[s - 1].frames.len() - 1;
+            let last_block = prev
+                .blocks
+                .iter()
+                .position(|b| b.contains(&last))
+                .expect("in a block");
+            let start_sigma = (config.sweep.verified_sigma_rad.powi(2)
+                + config.sweep.commanded_sigma_rad.powi(2) * prev.fallbacks_between(last_block))
+            .sqrt();
+            let distance = match frames[sweeps[s].frames[0]].motion {
+                Some(Motion::Forward { forward }) => forward,
+                _ => 0.0,
+            };
+            let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
+            SweepEdge {
+                i: s - 1,
+                j: s,
+                z: prior.mean * placed[s].rel(0).inverse(),
+                info: prior.covariance().try_inverse().unwrap_or_else(Matrix3::zeros),
+            }
+        })
+        .collect()
+}
+
+/// Moves the sweeps (each a rigid whole) to agree best with every measured
+/// relative pose at once ([`adjust_poses`]). Placing sweeps one at a time
+/// against the map of the others cannot turn a group of sweeps that agree
+/// with each other together; a joint solve can.
+fn adjust_sweeps(placed: &mut [Placed], edges: Vec<SweepEdge>) {
+    let mut poses: Vec<Pose2> = placed.iter().map(|p| p.pose).collect();
+    adjust_poses(&mut poses, edges);
+    for (p, pose) in placed.iter_mut().zip(poses) {
+        p.pose = pose;
+    }
+}
+
+/// The poses (the first held, which fixes the frame) that agree best with
+/// `edges` in the least-squares sense: Gauss-Newton from the given poses,
+/// then once more without the edges the first solution contradicts
+/// ([`EDGE_GATE`]).
+fn adjust_poses(poses: &mut [Pose2], mut edges: Vec<SweepEdge>) {
+    let n = poses.len();
+    if n < 2 {
+        return;
+    }
+    let dim = 3 * (n - 1);
+    for round in 0..2 {
+        for _iter in 0..GRAPH_ITERATIONS {
+            let mut h = nalgebra::DMatrix::<f64>::zeros(dim, dim);
+            let mut g = nalgebra::DVector::<f64>::zeros(dim);
+            for e in &edges {
+                let r = e.residual(&poses[e.i], &poses[e.j]);
+                // Jacobians by central differences, per node (the first is
+                // held).
+                let (pi, pj) = (poses[e.i], poses[e.j]);
+                let nudged = |p: Pose2, c: usize, d: f64| match c {
+                    0 => Pose2::new(p.x + d, p.y, p.theta),
+                    1 => Pose2::new(p.x, p.y + d, p.theta),
+                    _ => Pose2::new(p.x, p.y, p.theta + d),
+                };
+                let mut jac = [Matrix3::zeros(); 2];
+                for c in 0..3 {
+                    let di = |d: f64| e.residual(&nudged(pi, c, d), &pj);
+                    let dj = |d: f64| e.residual(&pi, &nudged(pj, c, d));
+                    jac[0].set_column(c, &((di(GRAPH_STEP) - di(-GRAPH_STEP)) / (2.0 * GRAPH_STEP)));
+                    jac[1].set_column(c, &((dj(GRAPH_STEP) - dj(-GRAPH_STEP)) / (2.0 * GRAPH_STEP)));
+                }
+                for (a, &na) in [e.i, e.j].iter().enumerate() {
+                    if na == 0 {
+                        continue;
+                    }
+                    let mut ga = g.rows_mut(3 * (na - 1), 3);
+                    ga += jac[a].transpose() * e.info * r;
+                    for (b, &nb) in [e.i, e.j].iter().enumerate() {
+                        if nb == 0 {
+                            continue;
+                        }
+                        let mut hab = h.view_mut((3 * (na - 1), 3 * (nb - 1)), (3, 3));
+                        hab += jac[a].transpose() * e.info * jac[b];
+                    }
+                }
+            }
+            let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
+                return;
+            };
+            for (s, p) in poses.iter_mut().enumerate().skip(1) {
+                let d = step.fixed_rows::<3>(3 * (s - 1));
+                *p = Pose2::new(p.x + d[0], p.y + d[1], p.theta + d[2]);
+            }
+            if step.amax() < 1e-9 {
+                break;
+            }
+        }
+        let before = edges.len();
+        if round == 0 {
+            edges.retain(|e| e.chi2(poses) <= EDGE_GATE);
+        }
+        if edges.len() == before {
+            break;
+        }
+    }
+}
+
+/// Gauss-Newton iterations of the sweep adjustment, at most.
+const GRAPH_ITERATIONS: usize = 10;
+
+/// Finite-difference step of the adjustment's Jacobians.
+const GRAPH_STEP: f64 = 1e-6;
 
 /// The belief in a sweep's first frame after the forward move from the
 /// previous sweep's last frame.
@@ -669,6 +925,41 @@ mod tests {
             vec![vec![0, 1, 5], vec![2, 3, 4, 6], vec![7]]
         );
         assert_eq!(components(3, &[]), vec![vec![0], vec![1], vec![2]]);
+    }
+
+    #[test]
+    fn the_adjustment_turns_a_group_of_sweeps_back_and_drops_a_wrong_match() {
+        let truth = [
+            Pose2::IDENTITY,
+            Pose2::from_deg(1.0, 0.0, 30.0),
+            Pose2::from_deg(1.5, 0.8, 100.0),
+            Pose2::from_deg(0.3, 1.0, 200.0),
+        ];
+        // Every pair measured exactly, to 1 cm and 2°; one match 10 cm and
+        // 5° wrong.
+        let info = Matrix3::from_diagonal(&Vector3::new(1e4, 1e4, 1.0 / 2f64.to_radians().powi(2)));
+        let mut edges = Vec::new();
+        for i in 0..4 {
+            for j in (i + 1)..4 {
+                let z = truth[i].between(&truth[j]);
+                edges.push(SweepEdge { i, j, z, info });
+            }
+        }
+        edges.push(SweepEdge {
+            i: 0,
+            j: 2,
+            z: truth[0].between(&truth[2]) * Pose2::from_deg(0.1, 0.0, 5.0),
+            info,
+        });
+        // Sweeps 2 and 3 start turned 3° about sweep 1 and 5 cm off,
+        // agreeing with each other.
+        let about_1 = truth[1] * Pose2::from_deg(0.05, 0.0, 3.0) * truth[1].inverse();
+        let mut poses = vec![truth[0], truth[1], about_1 * truth[2], about_1 * truth[3]];
+        adjust_poses(&mut poses, edges);
+        for (p, t) in poses.iter().zip(&truth) {
+            let d = t.between(p);
+            assert!(d.x.hypot(d.y) < 1e-6 && d.theta.abs() < 1e-6, "{p:?} vs {t:?}");
+        }
     }
 
     #[test]

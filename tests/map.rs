@@ -98,11 +98,10 @@ fn a_rendered_room_maps_within_the_office_targets() {
     let ate = num(&r, &["trajectory", "ate_aligned_m"]);
     assert!(ate <= 0.04, "ATE {ate} m");
     assert!(ate * 10.0 < num(&r, &["commanded", "ate_aligned_m"]), "{r}");
+    // The targets: F1 at least 0.9 and 95 % of the true-pose
+    // map's (this seed measures 0.95 and 99 %).
     assert!(num(&r, &["map", "f1"]) >= 0.9, "{}", r["map"]);
-    // The target is 95 % of the true-pose map; this seed measures 94 % in
-    // the map frame (99 % aligned), six others 95-100 % (BENCHMARKS.md).
-    assert!(num(&r, &["f1_ratio"]) >= 0.9, "{r}");
-    assert!(num(&r, &["f1_ratio_aligned"]) >= 0.95, "{r}");
+    assert!(num(&r, &["f1_ratio"]) >= 0.95, "{r}");
 }
 
 #[test]
@@ -129,17 +128,17 @@ fn shared_datasets_map_far_better_than_the_commands() {
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
     // The targets: ATE within 2 cm on the field and 4 cm in the
-    // office, F1 at least 0.9. The office's F1 is held to 0.85: in the
-    // map frame it measures 0.87 (0.96 after a best-fit alignment), below
-    // the target (see BENCHMARKS.md).
-    for (name, max_ate_m, min_f1) in [("field-multi", 0.02, 0.9), ("office-multi", 0.04, 0.85)] {
+    // office, F1 at least 0.9 and 95 % of the true-pose map's (the office
+    // measures 0.93 and 95.6 %, see BENCHMARKS.md).
+    for (name, max_ate_m) in [("field-multi", 0.02), ("office-multi", 0.04)] {
         let root = shared.join("datasets").join(name);
         let r = map_and_eval(&root, &dir.path().join(name));
         eprintln!("{name}: {r}");
         let ate = num(&r, &["trajectory", "ate_aligned_m"]);
         assert!(ate <= max_ate_m, "{name}: ATE {ate} m");
         assert!(ate * 10.0 < num(&r, &["commanded", "ate_aligned_m"]), "{name}");
-        assert!(num(&r, &["map", "f1"]) >= min_f1, "{name}: {}", r["map"]);
+        assert!(num(&r, &["map", "f1"]) >= 0.9, "{name}: {}", r["map"]);
+        assert!(num(&r, &["f1_ratio"]) >= 0.95, "{name}: {r}");
         checked += 1;
     }
     assert_eq!(checked, 2);

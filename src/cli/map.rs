@@ -95,9 +95,6 @@ pub struct EvalMapArgs {
     json: bool,
 }
 
-/// Refinement passes `build_map` reports progress for.
-const MAP_REFINE_PASSES: usize = pirouette::mapping::REFINE_PASSES;
-
 /// Profiles and sweeps of a dataset, with what mapping needs of its camera.
 pub struct Profiled {
     /// The profiles and sweeps.
@@ -143,7 +140,7 @@ pub fn profile_dataset(ds: &Dataset, options: &MapOptions) -> Result<Profiled> {
 pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
     let profiled = profile_dataset(ds, options)?;
     let run = &profiled.run;
-    let bar = super::progress(run.sweeps.len() + MAP_REFINE_PASSES, "register");
+    let bar = super::progress(pirouette::mapping::progress_steps(run.sweeps.len()), "register");
     let map = build_map(
         &ds.manifest.frames,
         &run.rops,
