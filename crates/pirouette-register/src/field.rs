@@ -1,6 +1,6 @@
 //! The likelihood field of a map: how well a point explains an obstacle.
 
-use kiddo::{KdTree, SquaredEuclidean};
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
 
@@ -23,10 +23,11 @@ use pirouette_grid::OccupancyGrid;
 ///
 /// # Memory
 /// Five bytes per cell of the map's extent (plus a border of `3σ`), and
-/// the k-d tree of the points (about 24 bytes each).
+/// the k-d tree of the points (about 16 bytes each).
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
-    tree: KdTree<f64, 2>,
+    /// `None` without points.
+    tree: Option<ImmutableKdTree<f64, 2>>,
     epsilon: f64,
     epsilon_free: f64,
     two_sigma2: f64,
@@ -143,10 +144,10 @@ impl LikelihoodField {
             .copied()
             .filter(|p| p.x.is_finite() && p.y.is_finite() && near_region(p))
             .collect();
-        let mut tree: KdTree<f64, 2> = KdTree::with_capacity(points.len().max(1));
-        for (k, p) in points.iter().enumerate() {
-            tree.add(&[p.x, p.y], k as u64);
-        }
+        // Built once and only queried: the immutable tree, balanced at
+        // construction, answers faster.
+        let coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+        let tree = (!coords.is_empty()).then(|| ImmutableKdTree::new_from_slice(&coords));
         let two_sigma2 = 2.0 * sigma_m * sigma_m;
         // The lattice covers the points (with the Gaussian's reach) and the
         // grid's stored cells.
@@ -218,12 +219,23 @@ impl LikelihoodField {
                 *f = grid.probability(i, j) < threshold;
             }
         }
+        // Most cells lie beyond every point's reach, where the value is
+        // the base's logarithm alone.
+        let (ln_eps, ln_eps_free) = (epsilon.ln() as f32, epsilon_free.ln() as f32);
         let values = d2
             .into_iter()
             .zip(&free)
             .map(|(d, &f)| {
                 let base = if f { epsilon_free } else { epsilon };
-                (base + (1.0 - epsilon) * (-d / two_sigma2).exp()).ln() as f32
+                if d.is_infinite() {
+                    if f {
+                        ln_eps_free
+                    } else {
+                        ln_eps
+                    }
+                } else {
+                    (base + (1.0 - epsilon) * (-d / two_sigma2).exp()).ln() as f32
+                }
             })
             .collect();
         Self {
@@ -279,10 +291,10 @@ impl LikelihoodField {
         } else {
             self.epsilon
         };
-        if self.occupied == 0 {
+        let Some(tree) = &self.tree else {
             return base.ln();
-        }
-        let d2 = self.tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
+        };
+        let d2 = tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
         (base + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
     }
 
