@@ -166,7 +166,7 @@ impl Placed {
 
     /// `map_from_robot` of the sweep's `k`-th frame.
     fn frame_pose(&self, k: usize) -> Pose2 {
-        self.pose * Pose2::new(0.0, 0.0, self.heading_rad[k])
+        self.pose * self.rel(k)
     }
 
     /// The endpoints and far points of some of the sweep's frames, in its
@@ -673,9 +673,11 @@ const PAIR_SHIFT_M: f64 = 0.05;
 /// solve (three degrees of freedom, 99.9 %) is dropped: a wrong match.
 const EDGE_GATE: f64 = 16.27;
 
-/// The measured relative poses between every two sweeps whose views
-/// overlap: each sweep (its frames as the heading chain placed them)
-/// registered against what each other sweep alone saw, both ways.
+/// The measured relative poses between every two sweeps within reach of
+/// each other: each sweep (its frames as the heading chain placed them)
+/// registered against what each other sweep alone saw, both ways. A
+/// match's covariance includes its search prior, broad beside what the
+/// match itself pins down.
 fn sweep_edges(
     placed: &[Placed],
     sweeps: &[DatasetSweep],
@@ -744,19 +746,9 @@ fn motion_edges(
     (1..sweeps.len())
         .map(|s| {
             let prev = &placed[s - 1];
-            let last = sweeps[s - 1].frames.len() - 1;
-            let last_block = prev
-                .blocks
-                .iter()
-                .position(|b| b.contains(&last))
-                .expect("in a block");
-            let start_sigma = (config.sweep.verified_sigma_rad.powi(2)
-                + config.sweep.commanded_sigma_rad.powi(2) * prev.fallbacks_between(last_block))
-            .sqrt();
-            let distance = match frames[sweeps[s].frames[0]].motion {
-                Some(Motion::Forward { forward }) => forward,
-                _ => 0.0,
-            };
+            let (last, fallback_var) = last_frame(&sweeps[s - 1], prev, config);
+            let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
+            let distance = forward_distance(frames[sweeps[s].frames[0]].motion);
             let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
             SweepEdge {
                 i: s - 1,
@@ -861,23 +853,36 @@ fn forward_prior(
     motion: Option<Motion>,
     config: &MapConfig,
 ) -> PosePrior {
-    let last = prev_sweep.frames.len() - 1;
+    let (last, fallback_var) = last_frame(prev_sweep, prev, config);
     let start = prev.frame_pose(last);
-    // The last frame's heading: the sweep's registration, and a command's
-    // error per fallback turn between its block and the largest.
-    let last_block = prev
+    // The last frame's heading: the sweep's registration, a verified
+    // turn's error and a command's per fallback turn.
+    let start_var = prev.covariance[(2, 2)] + config.sweep.verified_sigma_rad.powi(2) + fallback_var;
+    PosePrior::after_forward(&start, forward_distance(motion), start_var.sqrt(), &config.motion)
+}
+
+/// A sweep's last frame, and the variance its heading takes on from the
+/// fallback turns between its block and the sweep's largest (a command's
+/// error each).
+fn last_frame(sweep: &DatasetSweep, placed: &Placed, config: &MapConfig) -> (usize, f64) {
+    let last = sweep.frames.len() - 1;
+    let last_block = placed
         .blocks
         .iter()
         .position(|b| b.contains(&last))
         .expect("in a block");
-    let start_var = prev.covariance[(2, 2)]
-        + config.sweep.verified_sigma_rad.powi(2)
-        + config.sweep.commanded_sigma_rad.powi(2) * prev.fallbacks_between(last_block);
-    let distance = match motion {
+    (
+        last,
+        config.sweep.commanded_sigma_rad.powi(2) * placed.fallbacks_between(last_block),
+    )
+}
+
+/// The commanded forward move before a sweep, metres (0 without one).
+fn forward_distance(motion: Option<Motion>) -> f64 {
+    match motion {
         Some(Motion::Forward { forward }) => forward,
         _ => 0.0,
-    };
-    PosePrior::after_forward(&start, distance, start_var.sqrt(), &config.motion)
+    }
 }
 
 /// A grid of the profiles seen from given poses (the map a perfect
