@@ -3,7 +3,7 @@
 
 use crate::pipeline::DatasetSweep;
 use anyhow::{bail, Result};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::{GridConfig, OccupancyGrid};
 use pirouette_io::{FrameSpec, Motion};
@@ -13,6 +13,8 @@ use pirouette_register::{
     endpoints, far_points, register, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Registration,
 };
 use rayon::prelude::*;
+
+mod graph;
 
 /// Settings of mapping.
 #[derive(Debug, Clone, PartialEq)]
@@ -636,42 +638,11 @@ pub fn build_map(
     })
 }
 
-/// A relative pose measured between two sweeps: sweep `j`'s pose in sweep
-/// `i`'s frame, and its information in `i`'s `(x, y, θ)`.
-#[derive(Debug, Clone, Copy)]
-struct SweepEdge {
-    i: usize,
-    j: usize,
-    z: Pose2,
-    info: Matrix3<f64>,
-}
-
-impl SweepEdge {
-    /// The edge's residual at sweep poses `xi`, `xj`.
-    fn residual(&self, xi: &Pose2, xj: &Pose2) -> Vector3<f64> {
-        let pred = xi.between(xj);
-        Vector3::new(
-            pred.x - self.z.x,
-            pred.y - self.z.y,
-            pirouette_geom::wrap_angle(pred.theta - self.z.theta),
-        )
-    }
-
-    fn chi2(&self, poses: &[Pose2]) -> f64 {
-        let r = self.residual(&poses[self.i], &poses[self.j]);
-        (r.transpose() * self.info * r)[0]
-    }
-}
-
 /// How far apart two sweeps are matched in the adjustment, at most
 /// (metres, one standard deviation each way; their heading as far as one
 /// commanded turn errs): the sweeps were already placed against each
 /// other's maps, so the match looks near where they are.
 const PAIR_SHIFT_M: f64 = 0.05;
-
-/// An edge whose squared Mahalanobis residual exceeds this after the first
-/// solve (three degrees of freedom, 99.9 %) is dropped: a wrong match.
-const EDGE_GATE: f64 = 16.27;
 
 /// The measured relative poses between every two sweeps within reach of
 /// each other: each sweep (its frames as the heading chain placed them)
@@ -684,7 +655,7 @@ fn sweep_edges(
     rops: &[Rop],
     blind_m: f64,
     config: &MapConfig,
-) -> Result<Vec<SweepEdge>> {
+) -> Result<Vec<graph::Edge>> {
     let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
     let own: Vec<(LikelihoodField, Vec<Point2>)> = (0..sweeps.len())
         .into_par_iter()
@@ -715,7 +686,7 @@ fn sweep_edges(
         .collect();
     let edges = pairs
         .into_par_iter()
-        .map(|(i, j)| -> Result<Option<SweepEdge>> {
+        .map(|(i, j)| -> Result<Option<graph::Edge>> {
             let prior = PosePrior {
                 mean: placed[i].pose.between(&placed[j].pose),
                 sigma_forward_m: PAIR_SHIFT_M,
@@ -723,7 +694,7 @@ fn sweep_edges(
                 sigma_theta_rad: config.sweep.commanded_sigma_rad,
             };
             let reg = register(&own[i].0, &own[j].1, &prior, &config.register)?;
-            Ok(reg.accepted.then(|| SweepEdge {
+            Ok(reg.accepted.then(|| graph::Edge {
                 i,
                 j,
                 z: reg.pose,
@@ -742,7 +713,7 @@ fn motion_edges(
     sweeps: &[DatasetSweep],
     frames: &[FrameSpec],
     config: &MapConfig,
-) -> Vec<SweepEdge> {
+) -> Vec<graph::Edge> {
     (1..sweeps.len())
         .map(|s| {
             let prev = &placed[s - 1];
@@ -750,7 +721,7 @@ fn motion_edges(
             let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
             let distance = forward_distance(frames[sweeps[s].frames[0]].motion);
             let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
-            SweepEdge {
+            graph::Edge {
                 i: s - 1,
                 j: s,
                 z: prior.mean * placed[s].rel(0).inverse(),
@@ -761,89 +732,16 @@ fn motion_edges(
 }
 
 /// Moves the sweeps (each a rigid whole) to agree best with every measured
-/// relative pose at once ([`adjust_poses`]). Placing sweeps one at a time
+/// relative pose at once (`graph::adjust`). Placing sweeps one at a time
 /// against the map of the others cannot turn a group of sweeps that agree
 /// with each other together; a joint solve can.
-fn adjust_sweeps(placed: &mut [Placed], edges: Vec<SweepEdge>) {
+fn adjust_sweeps(placed: &mut [Placed], edges: Vec<graph::Edge>) {
     let mut poses: Vec<Pose2> = placed.iter().map(|p| p.pose).collect();
-    adjust_poses(&mut poses, edges);
+    graph::adjust(&mut poses, edges);
     for (p, pose) in placed.iter_mut().zip(poses) {
         p.pose = pose;
     }
 }
-
-/// The poses (the first held, which fixes the frame) that agree best with
-/// `edges` in the least-squares sense: Gauss-Newton from the given poses,
-/// then once more without the edges the first solution contradicts
-/// ([`EDGE_GATE`]).
-fn adjust_poses(poses: &mut [Pose2], mut edges: Vec<SweepEdge>) {
-    let n = poses.len();
-    if n < 2 {
-        return;
-    }
-    let dim = 3 * (n - 1);
-    for round in 0..2 {
-        for _iter in 0..GRAPH_ITERATIONS {
-            let mut h = nalgebra::DMatrix::<f64>::zeros(dim, dim);
-            let mut g = nalgebra::DVector::<f64>::zeros(dim);
-            for e in &edges {
-                let r = e.residual(&poses[e.i], &poses[e.j]);
-                // Jacobians by central differences, per node (the first is
-                // held).
-                let (pi, pj) = (poses[e.i], poses[e.j]);
-                let nudged = |p: Pose2, c: usize, d: f64| match c {
-                    0 => Pose2::new(p.x + d, p.y, p.theta),
-                    1 => Pose2::new(p.x, p.y + d, p.theta),
-                    _ => Pose2::new(p.x, p.y, p.theta + d),
-                };
-                let mut jac = [Matrix3::zeros(); 2];
-                for c in 0..3 {
-                    let di = |d: f64| e.residual(&nudged(pi, c, d), &pj);
-                    let dj = |d: f64| e.residual(&pi, &nudged(pj, c, d));
-                    jac[0].set_column(c, &((di(GRAPH_STEP) - di(-GRAPH_STEP)) / (2.0 * GRAPH_STEP)));
-                    jac[1].set_column(c, &((dj(GRAPH_STEP) - dj(-GRAPH_STEP)) / (2.0 * GRAPH_STEP)));
-                }
-                for (a, &na) in [e.i, e.j].iter().enumerate() {
-                    if na == 0 {
-                        continue;
-                    }
-                    let mut ga = g.rows_mut(3 * (na - 1), 3);
-                    ga += jac[a].transpose() * e.info * r;
-                    for (b, &nb) in [e.i, e.j].iter().enumerate() {
-                        if nb == 0 {
-                            continue;
-                        }
-                        let mut hab = h.view_mut((3 * (na - 1), 3 * (nb - 1)), (3, 3));
-                        hab += jac[a].transpose() * e.info * jac[b];
-                    }
-                }
-            }
-            let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
-                return;
-            };
-            for (s, p) in poses.iter_mut().enumerate().skip(1) {
-                let d = step.fixed_rows::<3>(3 * (s - 1));
-                *p = Pose2::new(p.x + d[0], p.y + d[1], p.theta + d[2]);
-            }
-            if step.amax() < 1e-9 {
-                break;
-            }
-        }
-        let before = edges.len();
-        if round == 0 {
-            edges.retain(|e| e.chi2(poses) <= EDGE_GATE);
-        }
-        if edges.len() == before {
-            break;
-        }
-    }
-}
-
-/// Gauss-Newton iterations of the sweep adjustment, at most.
-const GRAPH_ITERATIONS: usize = 10;
-
-/// Finite-difference step of the adjustment's Jacobians.
-const GRAPH_STEP: f64 = 1e-6;
 
 /// The belief in a sweep's first frame after the forward move from the
 /// previous sweep's last frame.
@@ -930,41 +828,6 @@ mod tests {
             vec![vec![0, 1, 5], vec![2, 3, 4, 6], vec![7]]
         );
         assert_eq!(components(3, &[]), vec![vec![0], vec![1], vec![2]]);
-    }
-
-    #[test]
-    fn the_adjustment_turns_a_group_of_sweeps_back_and_drops_a_wrong_match() {
-        let truth = [
-            Pose2::IDENTITY,
-            Pose2::from_deg(1.0, 0.0, 30.0),
-            Pose2::from_deg(1.5, 0.8, 100.0),
-            Pose2::from_deg(0.3, 1.0, 200.0),
-        ];
-        // Every pair measured exactly, to 1 cm and 2°; one match 10 cm and
-        // 5° wrong.
-        let info = Matrix3::from_diagonal(&Vector3::new(1e4, 1e4, 1.0 / 2f64.to_radians().powi(2)));
-        let mut edges = Vec::new();
-        for i in 0..4 {
-            for j in (i + 1)..4 {
-                let z = truth[i].between(&truth[j]);
-                edges.push(SweepEdge { i, j, z, info });
-            }
-        }
-        edges.push(SweepEdge {
-            i: 0,
-            j: 2,
-            z: truth[0].between(&truth[2]) * Pose2::from_deg(0.1, 0.0, 5.0),
-            info,
-        });
-        // Sweeps 2 and 3 start turned 3° about sweep 1 and 5 cm off,
-        // agreeing with each other.
-        let about_1 = truth[1] * Pose2::from_deg(0.05, 0.0, 3.0) * truth[1].inverse();
-        let mut poses = vec![truth[0], truth[1], about_1 * truth[2], about_1 * truth[3]];
-        adjust_poses(&mut poses, edges);
-        for (p, t) in poses.iter().zip(&truth) {
-            let d = t.between(p);
-            assert!(d.x.hypot(d.y) < 1e-6 && d.theta.abs() < 1e-6, "{p:?} vs {t:?}");
-        }
     }
 
     #[test]
