@@ -23,7 +23,8 @@ use pirouette_grid::OccupancyGrid;
 ///
 /// # Memory
 /// Five bytes per cell of the map's extent (plus a border of `3σ`), and
-/// the k-d tree of the points (about 16 bytes each).
+/// the k-d tree of the points (about 20 bytes each: coordinates and an
+/// index).
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
     /// `None` without points.
@@ -225,15 +226,11 @@ impl LikelihoodField {
         let values = d2
             .into_iter()
             .zip(&free)
-            .map(|(d, &f)| {
-                let base = if f { epsilon_free } else { epsilon };
-                if d.is_infinite() {
-                    if f {
-                        ln_eps_free
-                    } else {
-                        ln_eps
-                    }
-                } else {
+            .map(|(d, &f)| match (d.is_infinite(), f) {
+                (true, true) => ln_eps_free,
+                (true, false) => ln_eps,
+                (false, _) => {
+                    let base = if f { epsilon_free } else { epsilon };
                     (base + (1.0 - epsilon) * (-d / two_sigma2).exp()).ln() as f32
                 }
             })
