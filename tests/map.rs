@@ -71,8 +71,10 @@ fn registered_sweeps_map_a_rendered_field_to_a_centimetre() {
     assert!(ate <= 0.02, "ATE {ate} m");
     assert!(ate * 10.0 < commanded, "{ate} vs commanded {commanded}");
     assert!(num(&r, &["trajectory", "ate_anchored_m"]) <= 0.025);
+    // The targets: F1 at least 0.9 and 95 % of the true-pose
+    // map's (this seed measures 0.999 and 100 %).
     assert!(num(&r, &["map", "f1"]) >= 0.9, "{}", r["map"]);
-    assert!(num(&r, &["f1_ratio"]) >= 0.9, "{r}");
+    assert!(num(&r, &["f1_ratio"]) >= 0.95, "{r}");
     // The true-pose map checks the evaluation itself: the profiles are
     // right, so a map from the true poses matches the scene.
     assert!(
