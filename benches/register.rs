@@ -47,11 +47,14 @@ fn benches(c: &mut Criterion) {
     let extractor = pipeline::extractor(ds, None, vision()).expect("extractor");
     let blind_m = extractor.table().blind_range().expect("floor");
     let rops = pipeline::profiles(ds, &extractor, || {}).expect("profiles");
-    let sweeps = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+    let (sweeps, sweep_config) = pipeline::sweeps(ds, &rops, &SweepConfig::default());
     let truth = ds.truth_poses().expect("truth");
     let origin = truth[0].inverse();
     let truth: Vec<Pose2> = truth.iter().map(|t| origin * *t).collect();
-    let config = MapConfig::default();
+    let config = MapConfig {
+        sweep: sweep_config,
+        ..MapConfig::default()
+    };
 
     // The map of the first sweep, from its true poses.
     let mut grid = OccupancyGrid::new(GridConfig::default()).expect("grid");
@@ -123,7 +126,11 @@ fn benches(c: &mut Criterion) {
     group.bench_function("images_to_map", |b| {
         b.iter(|| {
             let rops = pipeline::profiles(ds, &extractor, || {}).expect("profiles");
-            let sweeps = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+            let (sweeps, sweep) = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+            let config = MapConfig {
+                sweep,
+                ..config.clone()
+            };
             build_map(&ds.manifest.frames, &rops, &sweeps, blind_m, &config, || {}).expect("map")
         })
     });

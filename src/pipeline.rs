@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
 use pirouette_io::{Dataset, Motion};
-use pirouette_profile::sweep::{assemble, Sweep, SweepConfig};
+use pirouette_profile::sweep::{assemble, pivot_from_turns, Sweep, SweepConfig};
 use pirouette_profile::Rop;
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
@@ -46,8 +46,40 @@ pub struct DatasetSweep {
 
 /// Groups the frames of a dataset into sweeps (a new sweep starts at a
 /// frame without a commanded turn: the first frame or a forward move) and
-/// assembles each from its profiles.
-pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> Vec<DatasetSweep> {
+/// assembles each from its profiles, about the point the robot turns
+/// about as its own turns measure it ([`pivot_from_turns`]): assembled
+/// about `config`'s pivot, then again about the one their verified turns'
+/// shifts give, until it moves less than a tenth of a millimetre (each
+/// round refines the turns from the shifts the last round's pivot
+/// predicts, and their robust fits keep the inliers near there). Returns
+/// the sweeps and the settings they were assembled with.
+pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> (Vec<DatasetSweep>, SweepConfig) {
+    let mut config = config.clone();
+    let mut sweeps = assemble_all(ds, rops, &config);
+    for _ in 0..PIVOT_ROUNDS {
+        let turns = sweeps.iter().flat_map(|s| s.sweep.turns.iter().flatten());
+        let Some(pivot) = pivot_from_turns(turns, TURN_SHIFT_FLOOR_M) else {
+            break;
+        };
+        let old = config.matching.pivot_m;
+        config.matching.pivot_m = pivot;
+        sweeps = assemble_all(ds, rops, &config);
+        if (pivot[0] - old[0]).hypot(pivot[1] - old[1]) < 1e-4 {
+            break;
+        }
+    }
+    (sweeps, config)
+}
+
+/// The most rounds of [`sweeps`]' pivot estimate.
+const PIVOT_ROUNDS: usize = 10;
+
+/// The least error of one turn's measured shift, metres (each way): the
+/// profiles' information about it counts only bin noise, but their range
+/// errors of a few millimetres are shared by neighbouring frames.
+const TURN_SHIFT_FLOOR_M: f64 = 0.002;
+
+fn assemble_all(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> Vec<DatasetSweep> {
     let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
     for (i, f) in ds.manifest.frames.iter().enumerate() {
         let turn = matches!(f.motion, Some(Motion::Turn { .. }));
@@ -59,19 +91,7 @@ pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> Vec<DatasetSw
     groups
         .into_par_iter()
         .map(|(id, frames)| {
-            let commanded: Vec<Option<f64>> = frames
-                .iter()
-                .map(|&i| match ds.manifest.frames[i].motion {
-                    Some(Motion::Turn { turn_deg }) => Some(turn_deg.to_radians()),
-                    _ => None,
-                })
-                .collect();
-            // The first frame of a sweep starts it, whatever its motion.
-            let commanded: Vec<Option<f64>> = commanded
-                .iter()
-                .enumerate()
-                .map(|(k, c)| if k == 0 { None } else { *c })
-                .collect();
+            let commanded = commanded_turns(ds, &frames);
             let sweep_rops: Vec<Rop> = frames.iter().map(|&i| rops[i].clone()).collect();
             DatasetSweep {
                 id,

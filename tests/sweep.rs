@@ -16,7 +16,7 @@ fn scores(root: &Path) -> SweepScores {
     };
     let ex = pipeline::extractor(&ds, None, config).unwrap();
     let rops = pipeline::profiles(&ds, &ex, || {}).unwrap();
-    let sweeps = pipeline::sweeps(&ds, &rops, &SweepConfig::default());
+    let (sweeps, _) = pipeline::sweeps(&ds, &rops, &SweepConfig::default());
     let tally = tally_sweeps(&ds, &sweeps).expect("true poses");
     tally.scores()
 }

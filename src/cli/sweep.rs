@@ -57,8 +57,7 @@ impl SweepOptions {
         let bar = super::progress(ds.manifest.frames.len(), "profile");
         let rops = pipeline::profiles(ds, &extractor, || bar.inc(1))?;
         bar.finish_and_clear();
-        let config = self.config()?;
-        let sweeps = pipeline::sweeps(ds, &rops, &config);
+        let (sweeps, config) = pipeline::sweeps(ds, &rops, &self.config()?);
         Ok(SweepRun {
             extractor,
             rops,
@@ -190,10 +189,11 @@ pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
     let mut overall = SweepTally::default();
     if !a.json {
         outln!(
-            "{:<16} {:>5} {:>9} {:>9} {:>9} {:>9} {:>6} {:>10} {:>9} {:>9}",
+            "{:<16} {:>5} {:>9} {:>5} {:>9} {:>9} {:>9} {:>6} {:>10} {:>9} {:>9}",
             "dataset",
             "turns",
             "verified",
+            "loop",
             "med err",
             "p95 err",
             "max err",
@@ -230,10 +230,11 @@ fn print_scores(name: &str, tally: &SweepTally, json: bool) -> Result<()> {
         outln!("{v}")?;
     } else {
         outln!(
-            "{:<16} {:>5} {:>8.1}% {:>8.2}° {:>8.2}° {:>8.2}° {:>6} {:>9.2}° {:>8.2}° {:>8.2}°",
+            "{:<16} {:>5} {:>8.1}% {:>5} {:>8.2}° {:>8.2}° {:>8.2}° {:>6} {:>9.2}° {:>8.2}° {:>8.2}°",
             name,
             s.turns,
             s.verified * 100.0,
+            s.loop_fixed,
             s.median_verified_error_deg,
             s.p95_verified_error_deg,
             s.max_verified_error_deg,

@@ -167,6 +167,9 @@ pub struct SweepTally {
     pub commanded_errors: Vec<f64>,
     /// Turns that fell back to the command.
     pub fallbacks: usize,
+    /// Verified turns that the loop closure fixed rather than a match of
+    /// their own (see [`pirouette_profile::matching::Evidence::Loop`]).
+    pub loop_fixed: usize,
     /// Verified turns with an error above 3°.
     pub wrong_verified: usize,
     /// |heading error| accumulated from each sweep's first to last frame,
@@ -181,6 +184,8 @@ pub struct SweepScores {
     pub turns: usize,
     /// Share of turns verified (not a fallback).
     pub verified: f64,
+    /// Verified turns that the loop closure fixed (no match of their own).
+    pub loop_fixed: usize,
     /// Median |error| of verified turns, degrees.
     pub median_verified_error_deg: f64,
     /// 95th percentile |error| of verified turns, degrees.
@@ -232,6 +237,7 @@ impl SweepTally {
             if t.fallback {
                 self.fallbacks += 1;
             } else {
+                self.loop_fixed += (t.evidence == pirouette_profile::matching::Evidence::Loop) as usize;
                 self.verified_errors.push(err);
                 if err > 3f64.to_radians() {
                     self.wrong_verified += 1;
@@ -257,6 +263,7 @@ impl SweepTally {
         self.all_errors.extend_from_slice(&o.all_errors);
         self.commanded_errors.extend_from_slice(&o.commanded_errors);
         self.fallbacks += o.fallbacks;
+        self.loop_fixed += o.loop_fixed;
         self.wrong_verified += o.wrong_verified;
         self.sweep_heading_errors
             .extend_from_slice(&o.sweep_heading_errors);
@@ -275,6 +282,7 @@ impl SweepTally {
             } else {
                 self.verified_errors.len() as f64 / turns as f64
             },
+            loop_fixed: self.loop_fixed,
             median_verified_error_deg: deg(median(&self.verified_errors)),
             p95_verified_error_deg: deg(percentile(&self.verified_errors, 0.95)),
             max_verified_error_deg: deg(self.verified_errors.iter().copied().fold(0.0, f64::max)),

@@ -141,11 +141,16 @@ struct Placed {
     prior: Option<PosePrior>,
     registration: Option<Registration>,
     covariance: Matrix3<f64>,
+    /// The point the robot turns about, in its own frame, metres (see
+    /// [`pirouette_profile::sweep::pivot_from_turns`]): a robot a few
+    /// millimetres off it moves its centre round a circle in a pirouette.
+    pivot: [f64; 2],
 }
 
 impl Placed {
-    /// A sweep at `pose`, its largest block the reference.
-    fn new(sweep: &DatasetSweep, pose: Pose2) -> Self {
+    /// A sweep at `pose`, its largest block the reference, its frames
+    /// turned about `pivot`.
+    fn new(sweep: &DatasetSweep, pose: Pose2, pivot: [f64; 2]) -> Self {
         let blocks = blocks_of(sweep);
         let reference = (0..blocks.len())
             .max_by_key(|&b| (blocks[b].len(), std::cmp::Reverse(b)))
@@ -158,12 +163,22 @@ impl Placed {
             prior: None,
             registration: None,
             covariance: Matrix3::zeros(),
+            pivot,
         }
     }
 
-    /// The sweep's `k`-th frame relative to its pose.
+    /// The sweep's `k`-th frame relative to its pose: turned by its heading
+    /// about the pivot, which stays where it is.
     fn rel(&self, k: usize) -> Pose2 {
-        Pose2::new(0.0, 0.0, self.heading_rad[k])
+        let at = |h: f64| {
+            let (sin, cos) = h.sin_cos();
+            [
+                cos * self.pivot[0] - sin * self.pivot[1],
+                sin * self.pivot[0] + cos * self.pivot[1],
+            ]
+        };
+        let (p0, pk) = (at(self.heading_rad[0]), at(self.heading_rad[k]));
+        Pose2::new(p0[0] - pk[0], p0[1] - pk[1], self.heading_rad[k])
     }
 
     /// `map_from_robot` of the sweep's `k`-th frame.
@@ -183,11 +198,9 @@ impl Placed {
         members
             .iter()
             .flat_map(|&k| {
-                let rel = Pose2::new(0.0, 0.0, self.heading_rad[k]);
-                let rop = &rops[sweep.frames[k]];
-                endpoints(rop)
+                let rel = self.rel(k);
+                frame_points(&rops[sweep.frames[k]], config)
                     .into_iter()
-                    .chain(far_points(rop, far_reach_m(rop, config)))
                     .map(move |p| rel.transform_point(p))
             })
             .collect()
@@ -198,6 +211,14 @@ impl Placed {
     fn fallbacks_between(&self, b: usize) -> f64 {
         (b as f64 - self.reference as f64).abs().max(1.0)
     }
+}
+
+/// What registration matches of a profile, robot frame: its endpoints
+/// and its far points.
+fn frame_points(rop: &Rop, config: &MapConfig) -> Vec<Point2> {
+    let mut points = endpoints(rop);
+    points.extend(far_points(rop, far_reach_m(rop, config)));
+    points
 }
 
 /// How far registration matches a profile's ranges, metres.
@@ -347,8 +368,8 @@ const REFINE_SHIFT_M: f64 = 0.05;
 /// (only keeps the system well posed).
 const CHAIN_WEAK_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
-/// How far an in-place turn moves the robot centre, metres (one standard
-/// deviation): the frames of one sweep share a position this closely.
+/// How far a frame may lie from where turning about the robot's pivot puts
+/// it, metres (one standard deviation).
 const TURN_SHIFT_M: f64 = 0.002;
 
 /// Solves the headings of a sweep's frames (about its centre) from the
@@ -378,7 +399,7 @@ fn chain_headings<'f>(
     let placed_now: &Placed = placed;
     let anchor_of = |k: usize| -> Result<Option<(usize, f64, f64)>> {
         let heading = cur[k];
-        let to_frame = Pose2::new(0.0, 0.0, -heading);
+        let to_frame = placed_now.rel(k).inverse();
         let pts: Vec<Point2> = placed_now
             .points(sweep, &[k], rops, config)
             .into_iter()
@@ -534,9 +555,11 @@ fn refine_pass(
 /// what was seen so far: the endpoints the grid holds occupied, the grid's
 /// free floor, and the ranges beyond the soft limit, which never enter the
 /// grid but pin headings where little is near ([`MapConfig::far_reach`]);
-/// then its frames' headings are solved about its
-/// centre from their turns (verified ones to a match's accuracy, fallbacks
-/// to a command's) and their own registrations. Then every sweep is placed
+/// then its frames' headings are solved from their turns (verified ones to
+/// a match's accuracy, fallbacks to a command's) and their own
+/// registrations, each frame turned about the robot's pivot (the sweep
+/// settings' [`pirouette_profile::matching::MatchConfig::pivot_m`], which
+/// the turns measured). Then every sweep is placed
 /// again, twice, against the map of all the others, which corrects the
 /// first sweeps with what later ones saw, and each frame's heading is
 /// anchored on the map of everything but itself (for a single pirouette,
@@ -561,10 +584,10 @@ pub fn build_map(
     let mut inserted: Vec<(usize, Pose2)> = Vec::new();
     for (s, sweep) in sweeps.iter().enumerate() {
         let state = match placed.last() {
-            None => Placed::new(sweep, Pose2::IDENTITY),
+            None => Placed::new(sweep, Pose2::IDENTITY, config.sweep.matching.pivot_m),
             Some(prev) => {
                 let prior = forward_prior(&sweeps[s - 1], prev, frames[sweep.frames[0]].motion, config);
-                let mut state = Placed::new(sweep, prior.mean);
+                let mut state = Placed::new(sweep, prior.mean, config.sweep.matching.pivot_m);
                 state.prior = Some(prior);
                 let field = field_of(&inserted, rops, blind_m, config)?;
                 place_sweep(&mut state, sweep, rops, &field, &prior, config)?;

@@ -82,6 +82,11 @@ pub struct MatchConfig {
     /// deviation each way; 0: the turn is refined alone). A verified turn
     /// is refined together with that shift.
     pub turn_shift_m: f64,
+    /// The point the robot turns about, in its own frame (x forward, y
+    /// left), metres: a turn by θ about it moves the robot centre by
+    /// `(I − R(θ))·pivot`, where the shift's prior is centred (see
+    /// [`crate::sweep::pivot_from_turns`]).
+    pub pivot_m: [f64; 2],
 }
 
 impl Default for MatchConfig {
@@ -99,7 +104,9 @@ impl Default for MatchConfig {
     ///   outside its basin by three standard deviations of the noise;
     /// - `min_structure`: 3, one clear edge seen in both profiles;
     /// - `turn_shift_m`: 3 mm: a robot that turns about a point 5 mm off
-    ///   its centre moves that centre by 2.6 mm in a 30° turn.
+    ///   its centre moves that centre by 2.6 mm in a 30° turn;
+    /// - `pivot_m`: the centre (no shift expected) until a dataset's turns
+    ///   have measured it.
     fn default() -> Self {
         Self {
             window_rad: 15f64.to_radians(),
@@ -114,6 +121,7 @@ impl Default for MatchConfig {
             min_confidence: 0.5,
             min_structure: 3.0,
             turn_shift_m: 0.003,
+            pivot_m: [0.0, 0.0],
         }
     }
 }
@@ -125,6 +133,10 @@ pub enum Evidence {
     Range,
     /// Ranges and obstacle colours.
     RangeAndColour,
+    /// The only unverified turn of a closed pirouette: the closing match
+    /// and the loop's other turns, all verified, fix it (see
+    /// [`crate::sweep::assemble`]).
+    Loop,
     /// Fallback: the profiles overlap too little in the window.
     NoOverlap,
     /// Fallback: the overlap is featureless (open floor): the aperture problem.
@@ -140,6 +152,7 @@ impl Evidence {
         match self {
             Evidence::Range => "range",
             Evidence::RangeAndColour => "range+colour",
+            Evidence::Loop => "loop",
             Evidence::NoOverlap => "no-overlap",
             Evidence::Aperture => "aperture",
             Evidence::Ambiguous => "ambiguous",
@@ -163,6 +176,43 @@ pub struct TurnEstimate {
     /// The best match's angle, even when it was not trusted (`None` when
     /// there was nothing to match), radians.
     pub candidate_rad: Option<f64>,
+    /// How far the robot centre moved during a verified turn, refined
+    /// with it (see [`MatchConfig::turn_shift_m`]); `None` where it was not.
+    pub shift: Option<TurnShift>,
+}
+
+/// The robot centre's move during a turn, measured with the turn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TurnShift {
+    /// The estimate, in the frame before the turn (x forward, y left),
+    /// metres: the profiles' evidence and the prior together.
+    pub shift_m: [f64; 2],
+    /// The prior's mean (the shift a turn about [`MatchConfig::pivot_m`]
+    /// makes), metres.
+    pub prior_mean_m: [f64; 2],
+    /// The prior's information (the inverse of its variance, the same each
+    /// way), 1/m².
+    pub prior_information: f64,
+    /// What the profiles alone say of the shift: its information matrix
+    /// with the turn marginalised out, 1/m². Along a plain wall the shift
+    /// parallel to it is not seen at all.
+    pub information: [[f64; 2]; 2],
+}
+
+impl TurnShift {
+    /// The shift the profiles alone give, weighed by [`Self::information`]:
+    /// `information · shift_alone`, which stays defined where the
+    /// information is singular. The estimate satisfies
+    /// `(information + λ·I)·shift = information·shift_alone + λ·prior_mean`.
+    pub fn weighted_evidence(&self) -> [f64; 2] {
+        let (h, l) = (&self.information, self.prior_information);
+        let [x, y] = self.shift_m;
+        let [mx, my] = self.prior_mean_m;
+        [
+            (h[0][0] + l) * x + h[0][1] * y - l * mx,
+            h[1][0] * x + (h[1][1] + l) * y - l * my,
+        ]
+    }
 }
 
 /// Per-bin matching signal.
@@ -178,41 +228,32 @@ struct Cell {
     chroma: Option<[f32; 2]>,
 }
 
-/// The matching signal as contiguous arrays, for the inner loop: values
-/// are 0 where absent and the presence of each is a 0/1 weight, so that
-/// the loop is plain arithmetic and vectorises.
+/// The matching signal as contiguous arrays, for the inner loop: an absent
+/// value is NaN, which every comparison of the loop treats as false, so
+/// that the presence of a bin, an obstacle or a colour is a mask computed
+/// from the values themselves and the loop vectorises.
 struct Signals {
-    /// Inverse range; 0 where nothing is in sight or the bin was not seen.
+    /// Inverse range (0: nothing in sight); NaN where the bin was not seen.
     inv: Vec<f32>,
-    /// The largest inverse range each bin allows (see [`Cell`]); 0 where
+    /// The largest inverse range each bin allows (see [`Cell`]); NaN where
     /// the bin was not seen.
     inv_hi: Vec<f32>,
-    /// 1 where the bin was seen.
-    seen: Vec<f32>,
-    /// 1 where the bin sees an obstacle (inverse range above 0).
-    obstacle: Vec<f32>,
-    /// Chromaticity shares; 0 where the bin has no colour.
+    /// Chromaticity shares; NaN where the bin has no colour.
     chroma_r: Vec<f32>,
     chroma_g: Vec<f32>,
-    /// 1 where the bin has a colour.
-    coloured: Vec<f32>,
 }
 
 impl Signals {
     /// The signal of bins `range` of `cells`; bins outside the profile are
-    /// absent (all zero).
+    /// absent.
     fn new(cells: &[Cell], range: std::ops::Range<i64>) -> Self {
         let n = (range.end - range.start).max(0) as usize;
         let mut s = Signals {
-            inv: vec![0.0; n],
-            inv_hi: vec![0.0; n],
-            seen: vec![0.0; n],
-            obstacle: vec![0.0; n],
-            chroma_r: vec![0.0; n],
-            chroma_g: vec![0.0; n],
-            coloured: vec![0.0; n],
+            inv: vec![f32::NAN; n],
+            inv_hi: vec![f32::NAN; n],
+            chroma_r: vec![f32::NAN; n],
+            chroma_g: vec![f32::NAN; n],
         };
-        let weight = |b: bool| if b { 1f32 } else { 0.0 };
         for (t, i) in range.enumerate() {
             let Some(c) = usize::try_from(i).ok().and_then(|i| cells.get(i)) else {
                 continue;
@@ -222,12 +263,9 @@ impl Signals {
             }
             s.inv[t] = c.inv;
             s.inv_hi[t] = c.inv_hi;
-            s.seen[t] = 1.0;
-            s.obstacle[t] = weight(c.inv > 0.0);
             if let Some([r, g]) = c.chroma {
                 s.chroma_r[t] = r;
                 s.chroma_g[t] = g;
-                s.coloured[t] = 1.0;
             }
         }
         s
@@ -261,6 +299,7 @@ fn cells(rop: &Rop) -> Vec<Cell> {
 
 /// Costs of every integer shift `k` in `k_lo..=k_hi`: after bin `i` against
 /// before bin `i + offset + k`.
+#[derive(Clone)]
 struct CostCurve {
     k_lo: i64,
     /// Mean cost over the informative pairs.
@@ -271,6 +310,9 @@ struct CostCurve {
     /// nothing agree trivially and would favour larger overlaps.
     informative: Vec<usize>,
     colour_pairs: Vec<usize>,
+    /// The colour term's sum per shift (it does not depend on the range
+    /// noise).
+    colour_cost: Vec<f32>,
 }
 
 impl CostCurve {
@@ -283,6 +325,40 @@ impl CostCurve {
     fn comparable(&self, j: usize, min_overlap: usize) -> bool {
         self.overlap[j] >= min_overlap
             && (self.informative[j] > 0 || self.informative.iter().all(|&n| n == 0))
+    }
+
+    /// The same curve at another range noise, from the informative pairs'
+    /// gaps that [`cost_curve`] kept (`len` per shift); the sums run in the
+    /// same lanes and order, so the result is the one a new pass would give.
+    /// Not for the DCT measure, whose range term is not a sum over pairs.
+    fn rescaled(
+        mut self,
+        gaps: &[f32],
+        len: usize,
+        inverse_range_sigma: f32,
+        config: &MatchConfig,
+    ) -> CostCurve {
+        debug_assert!(
+            config.measure != Measure::Dct,
+            "the DCT term is no sum over pairs"
+        );
+        let inv_s = 1.0 / inverse_range_sigma;
+        let range_costs = match config.measure {
+            Measure::Absolute => range_sums(gaps, len, inv_s, |e: f32| e.abs()),
+            Measure::Squared | Measure::Dct => range_sums(gaps, len, inv_s, |e: f32| e * e),
+            Measure::Robust => range_sums(gaps, len, inv_s, |e: f32| (e * e).min(9.0)),
+        };
+        for (j, cost) in self.cost.iter_mut().enumerate() {
+            *cost = if self.overlap[j] == 0 {
+                f64::INFINITY
+            } else if self.informative[j] == 0 {
+                0.0
+            } else {
+                (range_costs[j] as f64 + config.colour_weight as f64 * self.colour_cost[j] as f64)
+                    / self.informative[j] as f64
+            };
+        }
+        self
     }
 }
 
@@ -305,6 +381,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         evidence,
         overlap_bins,
         candidate_rad,
+        shift: None,
     };
     let offset = ((after.bearing_start_rad - before.bearing_start_rad) / w).round() as i64;
     let k_cmd = (commanded_rad / w).round() as i64;
@@ -325,7 +402,18 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     let a_len = a.len().div_ceil(LANES) as i64 * LANES as i64;
     let sa = Signals::new(&a, 0..a_len);
     let sb = Signals::new(&b, offset + k_lo..offset + k_hi + a_len);
-    let nominal = cost_curve(&sa, &sb, k_lo, k_hi, config.inverse_range_sigma, config);
+    // Each informative pair's inverse-range gap, kept from the first pass
+    // so that the second need not compare the profiles again.
+    let mut gaps = Vec::new();
+    let nominal = cost_curve(
+        &sa,
+        &sb,
+        k_lo,
+        k_hi,
+        config.inverse_range_sigma,
+        config,
+        &mut gaps,
+    );
     let Some(first) = best_of(&nominal) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
     };
@@ -336,8 +424,10 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     // A noise measured at (or clamped to) the nominal one gives the same curve.
     let curve = if sigma == config.inverse_range_sigma {
         nominal
+    } else if config.measure == Measure::Dct {
+        cost_curve(&sa, &sb, k_lo, k_hi, sigma, config, &mut gaps)
     } else {
-        cost_curve(&sa, &sb, k_lo, k_hi, sigma, config)
+        nominal.rescaled(&gaps, sa.inv.len(), sigma, config)
     };
     let Some(best) = best_of(&curve) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
@@ -407,18 +497,20 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     } else {
         Evidence::Range
     };
-    let turn = if config.turn_shift_m > 0.0 {
-        refine_with_shift(
-            before,
-            after,
-            k * w,
-            sigma as f64,
-            config.turn_shift_m,
-            config.basin_rad,
-        )
-    } else {
-        k * w
-    };
+    let refined = (config.turn_shift_m > 0.0)
+        .then(|| {
+            refine_with_shift(
+                before,
+                after,
+                k * w,
+                sigma as f64,
+                config.turn_shift_m,
+                config.pivot_m,
+                config.basin_rad,
+            )
+        })
+        .flatten();
+    let turn = refined.map_or(k * w, |(turn, _)| turn);
     TurnEstimate {
         turn_rad: turn,
         confidence,
@@ -426,20 +518,24 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         evidence,
         overlap_bins,
         candidate_rad: Some(turn),
+        shift: refined.map(|(_, shift)| shift),
     }
 }
 
 /// Refines a turn `theta0` together with a small shift of the robot
-/// centre during it (a Gaussian prior of `shift_sigma_m` each way): a robot
+/// centre during it (a Gaussian prior of `shift_sigma_m` each way, about
+/// the shift a turn about `pivot_m` makes): a robot
 /// turning in place about a point a few millimetres off its centre moves
 /// that centre, and the profiles see the parallax. Left to the turn alone,
 /// it bends the estimate on a slanted wall, where a shift toward the wall
 /// and a rotation look alike. Every finite range of `after` is moved into
 /// `before`'s frame and compared with `before` there in inverse range, in
 /// units of `sigma_inv` with the matcher's robust truncation, plus the
-/// prior; Gauss-Newton from `theta0` and no shift. The refinement stays
-/// within `basin_rad` of `theta0` (the basin the match verified), else
-/// `theta0` is kept.
+/// prior; Gauss-Newton from `theta0` and the expected shift. Returns the turn and
+/// the shift (`after`'s centre in `before`'s frame) with what the profiles
+/// alone say of it, or `None` where the
+/// refinement left the basin the match verified (`basin_rad` about
+/// `theta0`).
 ///
 /// The shifts are small beside the ranges, so a point's bearing is moved
 /// to first order in the shift, around its bearing at `theta0`.
@@ -449,106 +545,152 @@ fn refine_with_shift(
     theta0: f64,
     sigma_inv: f64,
     shift_sigma_m: f64,
+    pivot_m: [f64; 2],
     basin_rad: f64,
-) -> f64 {
+) -> Option<(f64, TurnShift)> {
     struct Point {
         /// Bearing in `before`'s frame at `theta0`.
         bearing: f64,
         cos: f64,
         sin: f64,
         range: f64,
+        /// The bearing's derivatives in the shift, `(-sin, cos) / range`.
+        d_bearing: [f64; 2],
     }
     let points: Vec<Point> = (0..after.len())
         .filter(|&i| after.range_m[i].is_finite())
         .map(|i| {
             let bearing = after.bin_centre_rad(i) + theta0;
             let (sin, cos) = bearing.sin_cos();
+            let range = after.range_m[i] as f64;
             Point {
                 bearing,
                 cos,
                 sin,
-                range: after.range_m[i] as f64,
+                range,
+                d_bearing: [-sin / range, cos / range],
             }
         })
         .collect();
-    let limits: Vec<(f64, f64)> = (0..before.len())
+    /// A bin of `before`: the interval of inverse ranges it allows (one
+    /// value where it sees an obstacle), `None` where it was not seen.
+    #[derive(Clone, Copy)]
+    struct Bin {
+        lo: f64,
+        hi: f64,
+        obstacle: bool,
+    }
+    let bins: Vec<Option<Bin>> = (0..before.len())
         .map(|j| {
             let r = before.range_m[j] as f64;
-            if r.is_finite() {
-                (1.0 / r, 1.0 / r)
+            if r.is_nan() {
+                None
+            } else if r.is_finite() {
+                Some(Bin {
+                    lo: 1.0 / r,
+                    hi: 1.0 / r,
+                    obstacle: true,
+                })
             } else {
-                (0.0, 1.0 / (before.free_reach(j) as f64).max(1e-3))
+                Some(Bin {
+                    lo: 0.0,
+                    hi: 1.0 / (before.free_reach(j) as f64).max(1e-3),
+                    obstacle: false,
+                })
             }
         })
         .collect();
-    let (start, w, n) = (before.bearing_start_rad, before.bin_width_rad, before.len());
+    let (start, w) = (before.bearing_start_rad, before.bin_width_rad);
     // A point's residual in units of `sigma_inv` at turn `theta0 + x[0]`
-    // and shift `(x[1], x[2])`: against `before`'s inverse range
-    // interpolated between bin centres where both neighbours see an
-    // obstacle, else against the interval of the bin it falls in. `None`
-    // where it falls outside `before` or on an unseen bin.
-    let residual = |p: &Point, x: &[f64; 3]| -> Option<f64> {
-        let bearing = p.bearing + x[0] + (x[2] * p.cos - x[1] * p.sin) / p.range;
+    // and shift `(x[1], x[2])`, with its derivatives in those three:
+    // against `before`'s inverse range interpolated between bin centres
+    // where both neighbours see an obstacle, else against the interval of
+    // the bin it falls in. `None` where it falls outside `before` or on an
+    // unseen bin.
+    let residual = |p: &Point, x: &[f64; 3]| -> Option<(f64, [f64; 3])> {
+        let d_bearing = [1.0, p.d_bearing[0], p.d_bearing[1]];
+        let bearing = p.bearing + x[0] + x[1] * d_bearing[1] + x[2] * d_bearing[2];
         let u = (bearing - start) / w;
-        if !(0.0..n as f64).contains(&u) {
+        // (NaN falls outside too.)
+        if u.is_nan() || u < 0.0 {
             return None;
         }
-        let j = u as usize;
-        if before.range_m[j].is_nan() {
-            return None;
-        }
+        let bin = (*bins.get(u as usize)?)?;
         let inv = 1.0 / (p.range + x[1] * p.cos + x[2] * p.sin);
+        let d_inv = [0.0, -p.cos * inv * inv, -p.sin * inv * inv];
+        // The bin centres either side: `j0` and `j0 + 1` (`u ≥ 0`, so the
+        // truncation is a floor from -0.5 up).
         let v = u - 0.5;
-        let j0 = v.floor();
-        if j0 >= 0.0 && (j0 as usize) + 1 < n {
-            let (a, b) = (before.range_m[j0 as usize], before.range_m[j0 as usize + 1]);
-            if a.is_finite() && b.is_finite() {
-                let f = v - j0;
-                let expect = (1.0 - f) / a as f64 + f / b as f64;
-                return Some((inv - expect) / sigma_inv);
-            }
-        }
-        let (lo, hi) = limits[j];
-        Some((inv - hi).max(lo - inv).max(0.0) / sigma_inv)
-    };
-    let prior = 1.0 / (shift_sigma_m * shift_sigma_m);
-    // The matcher's robust cost (truncated quadratic) plus the prior.
-    let cost = |x: &[f64; 3]| -> f64 {
-        let data: f64 = points
-            .iter()
-            .filter_map(|p| residual(p, x))
-            .map(|e| (e * e).min(9.0))
-            .sum();
-        data + (x[1] * x[1] + x[2] * x[2]) * prior
-    };
-    // Gauss-Newton on the inliers (|e| ≤ 3: the truncation's quadratic
-    // part), with forward-difference derivatives and step halving.
-    let h = [1e-4, 1e-4, 1e-4];
-    let mut x = [0.0; 3];
-    let mut best = cost(&x);
-    for _ in 0..10 {
-        let mut a = [[0.0; 3]; 3];
-        let mut g = [0.0, x[1] * prior, x[2] * prior];
-        a[1][1] = prior;
-        a[2][2] = prior;
-        for p in &points {
-            let Some(e) = residual(p, &x).filter(|e| e.abs() <= 3.0) else {
-                continue;
-            };
-            let mut jac = [0.0; 3];
-            for (k, d) in jac.iter_mut().enumerate() {
-                let mut xk = x;
-                xk[k] += h[k];
-                *d = residual(p, &xk).map_or(0.0, |ek| (ek - e) / h[k]);
-            }
-            for r in 0..3 {
-                g[r] += jac[r] * e;
-                for c in 0..3 {
-                    a[r][c] += jac[r] * jac[c];
+        if v >= 0.0 {
+            let j0 = v as usize;
+            if let (Some(Some(a)), Some(Some(b))) = (bins.get(j0), bins.get(j0 + 1)) {
+                if a.obstacle && b.obstacle {
+                    let f = v - j0 as f64;
+                    let expect = (1.0 - f) * a.lo + f * b.lo;
+                    let slope = (b.lo - a.lo) / w;
+                    let de = [
+                        (d_inv[0] - slope * d_bearing[0]) / sigma_inv,
+                        (d_inv[1] - slope * d_bearing[1]) / sigma_inv,
+                        (d_inv[2] - slope * d_bearing[2]) / sigma_inv,
+                    ];
+                    return Some(((inv - expect) / sigma_inv, de));
                 }
             }
         }
+        let (e, sign) = if inv - bin.hi > 0.0 && inv - bin.hi >= bin.lo - inv {
+            (inv - bin.hi, 1.0)
+        } else if bin.lo - inv > 0.0 {
+            (bin.lo - inv, -1.0)
+        } else {
+            return Some((0.0, [0.0; 3]));
+        };
+        let s = sign / sigma_inv;
+        Some((e / sigma_inv, [d_inv[0] * s, d_inv[1] * s, d_inv[2] * s]))
+    };
+    let prior = 1.0 / (shift_sigma_m * shift_sigma_m);
+    // The shift a turn by `theta0` about the pivot makes: `(I − R)·pivot`.
+    let expected = {
+        let (s, c) = theta0.sin_cos();
+        [
+            (1.0 - c) * pivot_m[0] + s * pivot_m[1],
+            -s * pivot_m[0] + (1.0 - c) * pivot_m[1],
+        ]
+    };
+    // The matcher's robust cost (truncated quadratic) plus the prior at
+    // `x`, and the Gauss-Newton normal equations of its inliers (|e| ≤ 3:
+    // the truncation's quadratic part), in one pass over the points.
+    let linearise = |x: &[f64; 3]| -> (f64, [[f64; 3]; 3], [f64; 3]) {
+        let (ex, ey) = (x[1] - expected[0], x[2] - expected[1]);
+        let mut cost = (ex * ex + ey * ey) * prior;
+        let mut a = [[0.0; 3]; 3];
+        let mut g = [0.0, ex * prior, ey * prior];
+        a[1][1] = prior;
+        a[2][2] = prior;
+        for p in &points {
+            let Some((e, jac)) = residual(p, x) else {
+                continue;
+            };
+            cost += (e * e).min(9.0);
+            if e.abs() <= 3.0 {
+                for r in 0..3 {
+                    g[r] += jac[r] * e;
+                    for c in 0..3 {
+                        a[r][c] += jac[r] * jac[c];
+                    }
+                }
+            }
+        }
+        (cost, a, g)
+    };
+    // Gauss-Newton with step halving, until a step no longer moves the
+    // turn by a microradian or the shift by a hundredth of a millimetre.
+    let mut x = [0.0, expected[0], expected[1]];
+    let (mut best, mut a, mut g) = linearise(&x);
+    for _ in 0..10 {
         let Some(step) = solve3(&a, &g) else { break };
+        if step[0].abs() < 1e-6 && step[1].hypot(step[2]) < 1e-5 {
+            break;
+        }
         let mut scale = 1.0;
         let mut moved = false;
         for _ in 0..6 {
@@ -557,9 +699,9 @@ fn refine_with_shift(
                 x[1] - scale * step[1],
                 x[2] - scale * step[2],
             ];
-            let value = cost(&trial);
+            let (value, ta, tg) = linearise(&trial);
             if value < best {
-                (x, best, moved) = (trial, value, true);
+                (x, best, a, g, moved) = (trial, value, ta, tg, true);
                 break;
             }
             scale *= 0.5;
@@ -568,11 +710,23 @@ fn refine_with_shift(
             break;
         }
     }
-    if x[0].abs() <= basin_rad {
-        theta0 + x[0]
-    } else {
-        theta0
+    // The profiles' information on the shift: the normal matrix without
+    // the prior, the turn marginalised out (its Schur complement).
+    let mut information = [[a[1][1] - prior, a[1][2]], [a[2][1], a[2][2] - prior]];
+    if a[0][0] > 0.0 {
+        for r in 0..2 {
+            for c in 0..2 {
+                information[r][c] -= a[r + 1][0] * a[0][c + 1] / a[0][0];
+            }
+        }
     }
+    let shift = TurnShift {
+        shift_m: [x[1], x[2]],
+        prior_mean_m: expected,
+        prior_information: prior,
+        information,
+    };
+    (x[0].abs() <= basin_rad).then_some((theta0 + x[0], shift))
 }
 
 /// The solution of the 3 × 3 system `a·x = b` (Cramer's rule), `None` when
@@ -655,6 +809,7 @@ fn cost_curve(
     k_hi: i64,
     inverse_range_sigma: f32,
     config: &MatchConfig,
+    gaps: &mut Vec<f32>,
 ) -> CostCurve {
     let n = (k_hi - k_lo + 1).max(0) as usize;
     let mut curve = CostCurve {
@@ -663,10 +818,13 @@ fn cost_curve(
         overlap: vec![0; n],
         informative: vec![0; n],
         colour_pairs: vec![0; n],
+        colour_cost: vec![0.0; n],
     };
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
     let len = sa.inv.len();
+    gaps.clear();
+    gaps.resize(n * len, 0.0);
     let mut xa = Vec::new();
     let mut xb = Vec::new();
     for j in 0..n {
@@ -676,23 +834,18 @@ fn cost_curve(
             ib: &sb.inv[b.clone()],
             ha: &sa.inv_hi,
             hb: &sb.inv_hi[b.clone()],
-            sa: &sa.seen,
-            sb: &sb.seen[b.clone()],
-            oa: &sa.obstacle,
-            ob: &sb.obstacle[b.clone()],
             ra: &sa.chroma_r,
             rb: &sb.chroma_r[b.clone()],
             ga: &sa.chroma_g,
-            gb: &sb.chroma_g[b.clone()],
-            ca: &sa.coloured,
-            cb: &sb.coloured[b],
+            gb: &sb.chroma_g[b],
             inv_s,
             chroma_s,
         };
+        let out = &mut gaps[j * len..(j + 1) * len];
         let sums = match config.measure {
-            Measure::Absolute => pair.sums(|e: f32| e.abs()),
-            Measure::Squared | Measure::Dct => pair.sums(|e: f32| e * e),
-            Measure::Robust => pair.sums(|e: f32| (e * e).min(9.0)),
+            Measure::Absolute => pair.sums(|e: f32| e.abs(), out),
+            Measure::Squared | Measure::Dct => pair.sums(|e: f32| e * e, out),
+            Measure::Robust => pair.sums(|e: f32| (e * e).min(9.0), out),
         };
         let Sums {
             range_cost,
@@ -709,7 +862,7 @@ fn cost_curve(
             xa.clear();
             xb.clear();
             for i in 0..len {
-                if pair.sa[i] * pair.sb[i] > 0.0 {
+                if !pair.ia[i].is_nan() && !pair.ib[i].is_nan() {
                     xa.push(pair.ia[i] * inv_s);
                     xb.push(pair.ib[i] * inv_s);
                 }
@@ -719,6 +872,7 @@ fn cost_curve(
         curve.overlap[j] = n_range as usize;
         curve.informative[j] = n_info as usize;
         curve.colour_pairs[j] = n_colour as usize;
+        curve.colour_cost[j] = colour_cost;
         curve.cost[j] = if n_info == 0 {
             0.0
         } else {
@@ -728,22 +882,34 @@ fn cost_curve(
     curve
 }
 
+/// Per shift, the range term over `len` stored gaps (0 for pairs that are
+/// not informative, which cost nothing under every measure), summed in the
+/// lanes of [`Pair::sums`].
+#[inline(always)]
+fn range_sums(gaps: &[f32], len: usize, inv_s: f32, rho: impl Fn(f32) -> f32) -> Vec<f32> {
+    gaps.chunks_exact(len)
+        .map(|shift| {
+            let mut acc = [0f32; LANES];
+            for block in shift.chunks_exact(LANES) {
+                for l in 0..LANES {
+                    acc[l] += rho(block[l] * inv_s);
+                }
+            }
+            acc.iter().sum()
+        })
+        .collect()
+}
+
 /// Two aligned stretches of signal (see [`Signals`]).
 struct Pair<'a> {
     ia: &'a [f32],
     ib: &'a [f32],
     ha: &'a [f32],
     hb: &'a [f32],
-    sa: &'a [f32],
-    sb: &'a [f32],
-    oa: &'a [f32],
-    ob: &'a [f32],
     ra: &'a [f32],
     rb: &'a [f32],
     ga: &'a [f32],
     gb: &'a [f32],
-    ca: &'a [f32],
-    cb: &'a [f32],
     inv_s: f32,
     chroma_s: f32,
 }
@@ -771,11 +937,14 @@ impl Pair<'_> {
     /// - its colour cost when both have a colour: the larger difference of
     ///   the two chromaticity shares.
     ///
-    /// All of it is products with the 0/1 weights, and the sums are kept
-    /// in eight lanes (bin `i` adds to lane `i mod 8`) added up at the end,
-    /// so the loop vectorises. Counts are sums of ones, exact in `f32`.
+    /// Absent values are NaN, so each condition is a comparison that comes
+    /// out false for them, and a term is added where its mask holds. The
+    /// sums are kept in eight lanes (bin `i` adds to lane `i mod 8`) added
+    /// up at the end, so the loop vectorises. Counts are sums of ones,
+    /// exact in `f32`. Each pair's gap goes to `gaps` where the pair is
+    /// informative, 0 elsewhere.
     #[inline(always)]
-    fn sums(&self, rho: impl Fn(f32) -> f32) -> Sums {
+    fn sums(&self, rho: impl Fn(f32) -> f32, gaps: &mut [f32]) -> Sums {
         let n = self.ia.len();
         let pair = self;
         assert!(n % LANES == 0, "signals come in whole blocks");
@@ -786,19 +955,13 @@ impl Pair<'_> {
         fn block(c: &[f32], base: usize) -> &[f32; LANES] {
             c[base..base + LANES].try_into().expect("a whole block")
         }
+        let when = |mask: bool, x: f32| if mask { x } else { 0.0 };
         for base in (0..n).step_by(LANES) {
-            let (ia, ib, sa, sb) = (
+            let (ia, ib, ha, hb) = (
                 block(pair.ia, base),
                 block(pair.ib, base),
-                block(pair.sa, base),
-                block(pair.sb, base),
-            );
-            let (ha, hb) = (block(pair.ha, base), block(pair.hb, base));
-            let (oa, ob, ca, cb) = (
-                block(pair.oa, base),
-                block(pair.ob, base),
-                block(pair.ca, base),
-                block(pair.cb, base),
+                block(pair.ha, base),
+                block(pair.hb, base),
             );
             let (ra, rb, ga, gb) = (
                 block(pair.ra, base),
@@ -806,23 +969,29 @@ impl Pair<'_> {
                 block(pair.ga, base),
                 block(pair.gb, base),
             );
+            let mut kept = [0f32; LANES];
             for l in 0..LANES {
-                let seen = sa[l] * sb[l];
+                // Both seen: neither inverse range is NaN.
+                // (`&` and `|`, not `&&` and `||`: no branches to keep.)
+                let seen = !(ia[l].is_nan() | ib[l].is_nan());
                 // Informative: a bin sees an obstacle within the other's
-                // reach (so the other would have seen it).
-                let within = |o: f32, inv: f32, hi: f32| if inv >= hi { o } else { 0.0 };
-                let info = seen * within(oa[l], ia[l], hb[l]).max(within(ob[l], ib[l], ha[l]));
-                let coloured = seen * ca[l] * cb[l];
+                // reach (so the other would have seen it); false where
+                // either bin is unseen.
+                let info = (ia[l] > 0.0) & (ia[l] >= hb[l]) | (ib[l] > 0.0) & (ib[l] >= ha[l]);
+                // Both coloured (only bins seen to an obstacle are).
+                let coloured = !(ra[l].is_nan() | rb[l].is_nan());
                 let e = (ra[l] - rb[l]).abs().max((ga[l] - gb[l]).abs()) * pair.chroma_s;
                 // The gap between the two intervals (for two ranges, their
                 // difference).
                 let gap = (ia[l] - hb[l]).max(ib[l] - ha[l]).max(0.0);
-                acc[0][l] += info * rho(gap * pair.inv_s);
-                acc[1][l] += coloured * rho(e);
-                acc[2][l] += seen;
-                acc[3][l] += info;
-                acc[4][l] += coloured;
+                kept[l] = when(info, gap);
+                acc[0][l] += when(info, rho(gap * pair.inv_s));
+                acc[1][l] += when(coloured, rho(e));
+                acc[2][l] += when(seen, 1.0);
+                acc[3][l] += when(info, 1.0);
+                acc[4][l] += when(coloured, 1.0);
             }
+            gaps[base..base + LANES].copy_from_slice(&kept);
         }
         let [range_cost, colour_cost, n_range, n_info, n_colour] = acc.map(|lanes| lanes.iter().sum::<f32>());
         Sums {
@@ -889,7 +1058,8 @@ mod tests {
     /// pair at a time: unseen bins, open floor (seen all the way or only
     /// up to a reach), colours present and absent,
     /// a profile length that is not a whole number of blocks, and shifts
-    /// that run off both ends.
+    /// that run off both ends. The curve rescaled to another noise from the
+    /// kept gaps equals a new pass.
     #[test]
     fn cost_curve_matches_the_definitions_pair_by_pair() {
         let mut rng = ChaCha8Rng::seed_from_u64(12345);
@@ -921,14 +1091,18 @@ mod tests {
         let config = MatchConfig::default();
         let (offset, k_lo, k_hi, sigma) = (3i64, -20i64, 25i64, 0.02f32);
         let a_len = a.len().div_ceil(LANES) as i64 * LANES as i64;
-        let curve = cost_curve(
-            &Signals::new(&a, 0..a_len),
-            &Signals::new(&b, offset + k_lo..offset + k_hi + a_len),
-            k_lo,
-            k_hi,
-            sigma,
-            &config,
+        let (sa, sb) = (
+            Signals::new(&a, 0..a_len),
+            Signals::new(&b, offset + k_lo..offset + k_hi + a_len),
         );
+        let mut gaps = Vec::new();
+        let curve = cost_curve(&sa, &sb, k_lo, k_hi, sigma, &config, &mut gaps);
+        // The curve at another noise, from the kept gaps, is the one a new
+        // pass over the profiles gives, to the last bit.
+        let other = cost_curve(&sa, &sb, k_lo, k_hi, 0.05, &config, &mut Vec::new());
+        let rescaled = curve.clone().rescaled(&gaps, a_len as usize, 0.05, &config);
+        assert_eq!(rescaled.cost, other.cost);
+        assert_eq!(rescaled.informative, other.informative);
         let rho = |e: f64| (e * e).min(9.0);
         let mut checked = 0;
         for (j, k) in (k_lo..=k_hi).enumerate() {
