@@ -188,6 +188,7 @@ pub fn evaluate(ds: &Dataset, profiled: &Profiled, dir: &Path, tolerance_cells: 
             blind_m: profiled.blind_m,
             span_rad,
             grid: &profiled.config.grid,
+            pivot_m: profiled.config.sweep.matching.pivot_m,
         },
         tolerance_cells,
     )
@@ -198,6 +199,12 @@ pub fn map(a: MapArgs) -> Result<()> {
     let ds = open_camera_dataset(&a.dataset)?;
     let mapped = map_dataset(&ds, &a.options)?;
     write_map(&ds, &mapped, &a.out)?;
+    let [px, py] = mapped.profiled.config.sweep.matching.pivot_m;
+    outln!(
+        "the robot turns about ({:+.1}, {:+.1}) mm from its centre (x forward, y left), as its verified turns measure it",
+        px * 1000.0,
+        py * 1000.0
+    )?;
     for s in &mapped.map.sweeps {
         match (&s.prior, &s.registration) {
             (Some(prior), Some(reg)) => {
@@ -291,5 +298,12 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
         100.0 * r.f1_ratio_aligned,
         r.tolerance_m * 100.0
     )?;
+    let [x, y] = r.pivot.estimated_mm;
+    match r.pivot.true_mm {
+        Some([tx, ty]) => {
+            outln!("pivot ({x:+.1}, {y:+.1}) mm from the turns, ({tx:+.1}, {ty:+.1}) mm in the true poses")?
+        }
+        None => outln!("pivot ({x:+.1}, {y:+.1}) mm from the turns")?,
+    }
     Ok(())
 }

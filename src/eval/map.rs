@@ -44,6 +44,51 @@ pub struct MapReport {
     pub f1_ratio_aligned: f64,
     /// Distance within which an occupied cell matches an outline, metres.
     pub tolerance_m: f64,
+    /// The point the robot turns about, as mapping took it from the turns
+    /// and as the true poses fit it.
+    pub pivot: PivotScores,
+}
+
+/// The point the robot turns about, in its own frame (x forward, y left),
+/// millimetres.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct PivotScores {
+    /// What mapping used (measured from the verified turns).
+    pub estimated_mm: [f64; 2],
+    /// The least-squares fit to the true poses (each sweep's frames at
+    /// one point minus the pivot turned by their heading); `None` with too
+    /// few frames.
+    pub true_mm: Option<[f64; 2]>,
+}
+
+/// The pivot, millimetres, that true poses fit: each frame (of sweep
+/// `sweep_of[i]`) at `c_s − R(θ)·p`, a centre `c_s` per sweep and one `p`
+/// for the robot, least squares.
+pub fn true_pivot(sweep_of: &[u32], truth: &[Pose2]) -> Option<[f64; 2]> {
+    assert_eq!(sweep_of.len(), truth.len(), "one sweep per pose");
+    let mut sweeps: Vec<u32> = sweep_of.to_vec();
+    sweeps.sort_unstable();
+    sweeps.dedup();
+    let unknowns = 2 * sweeps.len() + 2;
+    if 2 * truth.len() <= unknowns {
+        return None;
+    }
+    let mut a = nalgebra::DMatrix::<f64>::zeros(2 * truth.len(), unknowns);
+    let mut b = nalgebra::DVector::<f64>::zeros(2 * truth.len());
+    for (i, (sweep, t)) in sweep_of.iter().zip(truth).enumerate() {
+        let s = sweeps.binary_search(sweep).expect("listed");
+        let (sin, cos) = t.theta.sin_cos();
+        a[(2 * i, 2 * s)] = 1.0;
+        a[(2 * i, unknowns - 2)] = -cos;
+        a[(2 * i, unknowns - 1)] = sin;
+        b[2 * i] = t.x;
+        a[(2 * i + 1, 2 * s + 1)] = 1.0;
+        a[(2 * i + 1, unknowns - 2)] = -sin;
+        a[(2 * i + 1, unknowns - 1)] = -cos;
+        b[2 * i + 1] = t.y;
+    }
+    let x = a.svd(true, true).solve(&b, 1e-9).ok()?;
+    Some([x[unknowns - 2] * 1000.0, x[unknowns - 1] * 1000.0])
 }
 
 /// What a map was made of, for the true-pose map beside it.
@@ -57,6 +102,8 @@ pub struct MapInputs<'a> {
     pub span_rad: (f64, f64),
     /// The grid settings the map was made with.
     pub grid: &'a GridConfig,
+    /// The point the robot turned about, metres (robot frame).
+    pub pivot_m: [f64; 2],
 }
 
 /// The true poses re-expressed in the map frame (relative to the true first
@@ -167,6 +214,13 @@ pub fn evaluate_map_dir(
         map_aligned,
         true_pose_map,
         tolerance_m,
+        pivot: PivotScores {
+            estimated_mm: inputs.pivot_m.map(|v| v * 1000.0),
+            true_mm: true_pivot(
+                &ds.manifest.frames.iter().map(|f| f.sweep).collect::<Vec<_>>(),
+                &world_truth,
+            ),
+        },
     })
 }
 
@@ -457,5 +511,26 @@ mod tests {
         // |y − 0.02| ≤ √(0.02² − 0.005²) = 0.0194: y = 0.00 to 0.03, four of ten.
         assert!((q.recall - 0.4).abs() < 1e-12, "{q:?}");
         assert!((q.f1 - 2.0 * 0.8 * 0.4 / 1.2).abs() < 1e-12);
+    }
+
+    /// Poses of two sweeps, each turning exactly about one robot-frame
+    /// point: the fit gives that point back.
+    #[test]
+    fn true_pivot_is_the_point_turned_about() {
+        let pivot = [0.004, -0.0025];
+        let (mut sweep_of, mut poses) = (Vec::new(), Vec::new());
+        for (s, centre) in [(0u32, [0.3, -0.2]), (1, [1.4, 0.6])] {
+            for k in 0..12 {
+                let theta = 0.3 + k as f64 * 0.52 + s as f64;
+                let (sin, cos) = f64::sin_cos(theta);
+                let x = centre[0] - (cos * pivot[0] - sin * pivot[1]);
+                let y = centre[1] - (sin * pivot[0] + cos * pivot[1]);
+                sweep_of.push(s);
+                poses.push(Pose2::new(x, y, theta));
+            }
+        }
+        let p = true_pivot(&sweep_of, &poses).expect("enough frames");
+        assert!((p[0] - 4.0).abs() < 1e-9 && (p[1] + 2.5).abs() < 1e-9, "{p:?}");
+        assert!(true_pivot(&sweep_of[..2], &poses[..2]).is_none());
     }
 }
