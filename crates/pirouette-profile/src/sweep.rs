@@ -263,63 +263,38 @@ pub fn pivot_from_turns<'a>(
     turns: impl IntoIterator<Item = &'a TurnEstimate>,
     floor_sd_m: f64,
 ) -> Option<[f64; 2]> {
-    let (mut a, mut b) = ([[0.0; 2]; 2], [0.0; 2]);
+    use nalgebra::{Matrix2, SymmetricEigen, Vector2};
+    let mut a = Matrix2::<f64>::zeros();
+    let mut b = Vector2::<f64>::zeros();
     for t in turns {
         let Some(shift) = t.shift.filter(|_| !t.fallback) else {
             continue;
         };
         // The turn's information with the floor added to its covariance,
         // `(H⁺ + σ²I)⁻¹ = V·diag(λ / (1 + σ²λ))·Vᵀ`, and the evidence
-        // `Hd` scaled alike.
-        let (h, hd) = (shift.information, shift.weighted_evidence());
-        let (lambdas, v) = sym2_eigen(h);
-        let mut h_eff = [[0.0; 2]; 2];
-        let mut hd_eff = [0.0; 2];
-        for (k, &l) in lambdas.iter().enumerate() {
-            let l = l.max(0.0);
-            let damp = 1.0 / (1.0 + floor_sd_m * floor_sd_m * l);
-            let proj = v[0][k] * hd[0] + v[1][k] * hd[1];
-            for r in 0..2 {
-                hd_eff[r] += v[r][k] * damp * proj;
-                for c in 0..2 {
-                    h_eff[r][c] += v[r][k] * l * damp * v[c][k];
-                }
-            }
-        }
+        // `Hd` scaled alike: `V·diag(1 / (1 + σ²λ))·Vᵀ·Hd`.
+        let [[h00, h01], [h10, h11]] = shift.information;
+        let eigen = SymmetricEigen::new(Matrix2::new(h00, 0.5 * (h01 + h10), 0.5 * (h01 + h10), h11));
+        let lambda = eigen.eigenvalues.map(|l| l.max(0.0));
+        let damp = lambda.map(|l| 1.0 / (1.0 + floor_sd_m * floor_sd_m * l));
+        let v = eigen.eigenvectors;
+        let h = v * Matrix2::from_diagonal(&lambda.component_mul(&damp)) * v.transpose();
+        let hd = v * Matrix2::from_diagonal(&damp) * v.transpose() * Vector2::from(shift.weighted_evidence());
         let (s, c) = t.turn_rad.sin_cos();
-        let m = [[1.0 - c, s], [-s, 1.0 - c]];
-        // MᵀH, then MᵀHM and Mᵀ(Hd).
-        let mut mth = [[0.0; 2]; 2];
-        for r in 0..2 {
-            for c in 0..2 {
-                mth[r][c] = m[0][r] * h_eff[0][c] + m[1][r] * h_eff[1][c];
-            }
-        }
-        for r in 0..2 {
-            for c in 0..2 {
-                a[r][c] += mth[r][0] * m[0][c] + mth[r][1] * m[1][c];
-            }
-            b[r] += m[0][r] * hd_eff[0] + m[1][r] * hd_eff[1];
-        }
+        let m = Matrix2::new(1.0 - c, s, -s, 1.0 - c);
+        a += m.transpose() * h * m;
+        b += m.transpose() * hd;
     }
-    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-    let scale = a[0][0].abs().max(a[1][1].abs());
-    (det.is_finite() && det > 1e-9 * scale * scale).then(|| {
-        [
-            (a[1][1] * b[0] - a[0][1] * b[1]) / det,
-            (a[0][0] * b[1] - a[1][0] * b[0]) / det,
-        ]
-    })
-}
-
-/// Eigenvalues and eigenvectors (columns) of a symmetric 2 × 2 matrix.
-fn sym2_eigen(m: [[f64; 2]; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
-    let (a, b, d) = (m[0][0], 0.5 * (m[0][1] + m[1][0]), m[1][1]);
-    let mean = 0.5 * (a + d);
-    let radius = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-    let angle = 0.5 * (2.0 * b).atan2(a - d);
-    let (s, c) = angle.sin_cos();
-    ([mean + radius, mean - radius], [[c, -s], [s, c]])
+    // Both coordinates fixed: the smaller eigenvalue not lost in rounding.
+    let eigen = SymmetricEigen::new(a);
+    let (lo, hi) = (eigen.eigenvalues.min(), eigen.eigenvalues.max());
+    (hi > 0.0 && lo > 1e-9 * hi)
+        .then(|| a.try_inverse())
+        .flatten()
+        .map(|inv| {
+            let p = inv * b;
+            [p.x, p.y]
+        })
 }
 
 fn wrap(a: f64) -> f64 {
