@@ -325,7 +325,7 @@ fn frame_fields(
     let n = sweep.frames.len();
     let c = placed.pose.translation();
     // Points lie within the registration's reach; a frame turns about the
-    // centre.
+    // pivot, within a centimetre of the first frame's position.
     let reach = far_reach_m(&rops[sweep.frames[0]], config).max(rops[sweep.frames[0]].max_range_m as f64)
         + FRAME_FIELD_MARGIN_M;
     let region = (
@@ -372,11 +372,11 @@ const CHAIN_WEAK_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
 /// it, metres (one standard deviation).
 const TURN_SHIFT_M: f64 = 0.002;
 
-/// Solves the headings of a sweep's frames (about its centre) from the
-/// turns between them and what the map says of each frame alone: a chain
-/// of relative headings (verified links to a match's accuracy, fallback
-/// turns to a command's), anchored where a frame's own registration (a
-/// turn about the centre, searched within one command's error) pins its
+/// Solves the headings of a sweep's frames (each turned about the robot's
+/// pivot) from the turns between them and what the map says of each frame
+/// alone: a chain of relative headings (verified links to a match's
+/// accuracy, fallback turns to a command's), anchored where a frame's own registration (a
+/// turn about the pivot, searched within one command's error) pins its
 /// heading to better than half that. Every heading also keeps a weak pull
 /// (10°) to its current value, so a frame without anchors or links stays.
 /// Linear least squares; anchors more than three standard deviations from

@@ -306,7 +306,10 @@ fn wrap(a: f64) -> f64 {
     }
 }
 
-/// The 360° sweep: every profile's bins rotated by its frame's heading;
+/// The 360° sweep: every profile's bins rotated by its frame's heading
+/// about the first frame's centre (the other frames' centres lie within a
+/// centimetre of it, on the circle a robot turning about a point off its
+/// centre runs round: a diagram, not a map);
 /// where several frames see a bin, the median range (and the colour of the
 /// sample nearest it).
 fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
