@@ -54,8 +54,38 @@ pub struct DatasetSweep {
 /// predicts, and their robust fits keep the inliers near there). Returns
 /// the sweeps and the settings they were assembled with.
 pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> (Vec<DatasetSweep>, SweepConfig) {
+    // Each sweep's frames, commands and profiles, gathered once for every
+    // round.
+    let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
+    for (i, f) in ds.manifest.frames.iter().enumerate() {
+        let turn = matches!(f.motion, Some(Motion::Turn { .. }));
+        match groups.last_mut() {
+            Some((_, frames)) if turn => frames.push(i),
+            _ => groups.push((f.sweep, vec![i])),
+        }
+    }
+    let inputs: Vec<(Vec<Option<f64>>, Vec<Rop>)> = groups
+        .iter()
+        .map(|(_, frames)| {
+            (
+                commanded_turns(ds, frames),
+                frames.iter().map(|&i| rops[i].clone()).collect(),
+            )
+        })
+        .collect();
+    let assemble_all = |config: &SweepConfig| -> Vec<DatasetSweep> {
+        groups
+            .par_iter()
+            .zip(&inputs)
+            .map(|((id, frames), (commanded, sweep_rops))| DatasetSweep {
+                id: *id,
+                frames: frames.clone(),
+                sweep: assemble(sweep_rops, commanded, config),
+            })
+            .collect()
+    };
     let mut config = config.clone();
-    let mut sweeps = assemble_all(ds, rops, &config);
+    let mut sweeps = assemble_all(&config);
     for _ in 0..PIVOT_ROUNDS {
         let turns = sweeps.iter().flat_map(|s| s.sweep.turns.iter().flatten());
         let Some(pivot) = pivot_from_turns(turns, TURN_SHIFT_FLOOR_M) else {
@@ -63,7 +93,7 @@ pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> (Vec<DatasetS
         };
         let old = config.matching.pivot_m;
         config.matching.pivot_m = pivot;
-        sweeps = assemble_all(ds, rops, &config);
+        sweeps = assemble_all(&config);
         if (pivot[0] - old[0]).hypot(pivot[1] - old[1]) < 1e-4 {
             break;
         }
@@ -78,29 +108,6 @@ const PIVOT_ROUNDS: usize = 10;
 /// profiles' information about it counts only bin noise, but their range
 /// errors of a few millimetres are shared by neighbouring frames.
 const TURN_SHIFT_FLOOR_M: f64 = 0.002;
-
-fn assemble_all(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> Vec<DatasetSweep> {
-    let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
-    for (i, f) in ds.manifest.frames.iter().enumerate() {
-        let turn = matches!(f.motion, Some(Motion::Turn { .. }));
-        match groups.last_mut() {
-            Some((_, frames)) if turn => frames.push(i),
-            _ => groups.push((f.sweep, vec![i])),
-        }
-    }
-    groups
-        .into_par_iter()
-        .map(|(id, frames)| {
-            let commanded = commanded_turns(ds, &frames);
-            let sweep_rops: Vec<Rop> = frames.iter().map(|&i| rops[i].clone()).collect();
-            DatasetSweep {
-                id,
-                frames,
-                sweep: assemble(&sweep_rops, &commanded, config),
-            }
-        })
-        .collect()
-}
 
 /// The commanded turn before each of a sweep's frames, radians: `None` for
 /// its first frame (which starts the sweep, whatever its motion).
