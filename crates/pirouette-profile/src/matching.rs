@@ -524,18 +524,17 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
 
 /// Refines a turn `theta0` together with a small shift of the robot
 /// centre during it (a Gaussian prior of `shift_sigma_m` each way, about
-/// the shift a turn about `pivot_m` makes): a robot
-/// turning in place about a point a few millimetres off its centre moves
-/// that centre, and the profiles see the parallax. Left to the turn alone,
+/// the shift a turn about `pivot_m` makes): a robot turning in place about
+/// a point a few millimetres off its centre moves that centre, and the
+/// profiles see the parallax. Left to the turn alone,
 /// it bends the estimate on a slanted wall, where a shift toward the wall
 /// and a rotation look alike. Every finite range of `after` is moved into
 /// `before`'s frame and compared with `before` there in inverse range, in
 /// units of `sigma_inv` with the matcher's robust truncation, plus the
-/// prior; Gauss-Newton from `theta0` and the expected shift. Returns the turn and
-/// the shift (`after`'s centre in `before`'s frame) with what the profiles
-/// alone say of it, or `None` where the
-/// refinement left the basin the match verified (`basin_rad` about
-/// `theta0`).
+/// prior; Gauss-Newton from `theta0` and the expected shift. Returns the
+/// turn and the shift (`after`'s centre in `before`'s frame) with what the
+/// profiles alone say of it, or `None` where the refinement left the basin
+/// the match verified (`basin_rad` about `theta0`).
 ///
 /// The shifts are small beside the ranges, so a point's bearing is moved
 /// to first order in the shift, around its bearing at `theta0`.

@@ -564,6 +564,9 @@ mod tests {
     #[test]
     fn pivot_from_exact_shifts() {
         let pivot = [-0.003, 0.005];
+        // Each turn's estimate is the posterior of its exact shift `d`
+        // under a prior about no shift: `(H + λI)·x = H·d`.
+        let prior_information = 1e5;
         let turns: Vec<TurnEstimate> = [
             (25f64, [[4e6, 1e6], [1e6, 2e6]]),
             (35.0, [[9e6, 0.0], [0.0, 0.0]]),
@@ -571,11 +574,15 @@ mod tests {
         ]
         .into_iter()
         .map(|(deg, information)| {
+            use nalgebra::{Matrix2, Vector2};
             let (s, c) = deg.to_radians().sin_cos();
-            let d = [
-                (1.0 - c) * pivot[0] + s * pivot[1],
-                -s * pivot[0] + (1.0 - c) * pivot[1],
-            ];
+            let d = Matrix2::new(1.0 - c, s, -s, 1.0 - c) * Vector2::from(pivot);
+            let h = Matrix2::from_fn(|r, c| information[r][c]);
+            let x = (h + Matrix2::identity() * prior_information)
+                .try_inverse()
+                .unwrap()
+                * h
+                * d;
             TurnEstimate {
                 turn_rad: deg.to_radians(),
                 confidence: 1.0,
@@ -584,39 +591,14 @@ mod tests {
                 overlap_bins: 100,
                 candidate_rad: Some(deg.to_radians()),
                 shift: Some(crate::matching::TurnShift {
-                    // A prior about another point pulled the estimate.
-                    shift_m: [d[0] * 0.9, d[1] * 0.8],
+                    shift_m: [x.x, x.y],
                     prior_mean_m: [0.0, 0.0],
-                    prior_information: 0.0,
+                    prior_information,
                     information,
                 }),
             }
         })
         .collect();
-        // The estimates above are off, so make them the posteriors of the
-        // exact shifts under a prior at zero: (H + λ)·x = H·d.
-        let turns: Vec<TurnEstimate> = turns
-            .into_iter()
-            .map(|mut t| {
-                let sh = t.shift.as_mut().unwrap();
-                let (s, c) = t.turn_rad.sin_cos();
-                let d = [
-                    (1.0 - c) * pivot[0] + s * pivot[1],
-                    -s * pivot[0] + (1.0 - c) * pivot[1],
-                ];
-                let l = 1e5;
-                let h = sh.information;
-                let a = [[h[0][0] + l, h[0][1]], [h[1][0], h[1][1] + l]];
-                let rhs = [h[0][0] * d[0] + h[0][1] * d[1], h[1][0] * d[0] + h[1][1] * d[1]];
-                let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-                sh.shift_m = [
-                    (a[1][1] * rhs[0] - a[0][1] * rhs[1]) / det,
-                    (a[0][0] * rhs[1] - a[1][0] * rhs[0]) / det,
-                ];
-                sh.prior_information = l;
-                t
-            })
-            .collect();
         for floor in [0.0, 0.002] {
             let p = pivot_from_turns(&turns, floor).expect("determined");
             assert!(
