@@ -35,6 +35,11 @@ pub struct ProfileOptions {
     /// change is enough (1 turns the edge cue off).
     #[arg(long, default_value_t = VisionConfig::default().edge_fraction)]
     edge_fraction: f32,
+    /// At a step of brightness alone within one image row, the most texture
+    /// above it, as a share of the floor's below, that makes it an
+    /// obstacle's base (0 turns the texture cue off).
+    #[arg(long, default_value_t = VisionConfig::default().texture_ratio)]
+    texture_ratio: f32,
 }
 
 impl ProfileOptions {
@@ -56,6 +61,7 @@ impl ProfileOptions {
             min_chroma_step: self.min_chroma_step,
             noise_sigmas: self.noise_sigmas,
             edge_fraction: self.edge_fraction,
+            texture_ratio: self.texture_ratio,
             filter,
             ..VisionConfig::default()
         })

@@ -39,20 +39,25 @@ impl Classifier {
     /// that a loop over columns vectorises.
     #[inline(always)]
     pub fn floor_mask(&self, p: &[f32; 3], q: &[f32; 3]) -> u32 {
-        self.masks(p, q, self.chroma_step).0
+        self.masks(p, q, self).floor
     }
 
-    /// [`Classifier::floor_mask`] and, sharing its work, the same test with
-    /// chromaticity tolerance `edge_chroma_step` (that of
-    /// [`Classifier::scaled`]), each as 1 or 0.
+    /// [`Classifier::floor_mask`] and, sharing its work, two tests with
+    /// tighter tolerances, each as 1 or 0: `close`, the same test with
+    /// chromaticity tolerance `edge.chroma_step` (that of
+    /// [`Classifier::scaled`]); `steady`, whether the brightness step also
+    /// lies within `edge.brightness_step` (that of
+    /// [`Classifier::scaled_both`]). The noise allowance is the same in all.
     #[inline(always)]
-    pub fn masks(&self, p: &[f32; 3], q: &[f32; 3], edge_chroma_step: f32) -> (u32, u32) {
+    pub fn masks(&self, p: &[f32; 3], q: &[f32; 3], edge: &Classifier) -> Masks {
         let sum_p = p[0] + p[1] + p[2];
         let sum_q = max0(q[0] + q[1] + q[2], 0.0);
         let db = sum_p - sum_q;
         let tb = max0(self.brightness_step * sum_q, self.noise * SQRT_3);
         let tb2 = tb * tb;
         let inside = (db * db <= tb2) as u32;
+        let tb_edge = max0(edge.brightness_step * sum_q, self.noise * SQRT_3);
+        let steady = (db * db <= tb_edge * tb_edge) as u32;
         // Room left inside the ellipse for the chromaticity term.
         let room = 1.0 - db * db / tb2;
         let b = if sum_q > 0.0 { sum_p / sum_q } else { 1.0 };
@@ -60,15 +65,30 @@ impl Classifier {
             let expect = b * q[c];
             let e = p[c] - expect;
             let t = max0(self.chroma_step * expect, self.noise);
-            let t_edge = max0(edge_chroma_step * expect, self.noise);
+            let t_edge = max0(edge.chroma_step * expect, self.noise);
             (
                 (e * e <= room * t * t) as u32,
                 (e * e <= room * t_edge * t_edge) as u32,
             )
         };
         let (c0, c1, c2) = (channel(0), channel(1), channel(2));
-        (inside & c0.0 & c1.0 & c2.0, inside & c0.1 & c1.1 & c2.1)
+        Masks {
+            floor: inside & c0.0 & c1.0 & c2.0,
+            close: inside & c0.1 & c1.1 & c2.1,
+            steady,
+        }
     }
+}
+
+/// The outcomes of [`Classifier::masks`], each 1 or 0.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Masks {
+    /// Floor.
+    pub floor: u32,
+    /// Floor with the edge test's chromaticity tolerance.
+    pub close: u32,
+    /// The brightness step within the edge test's brightness tolerance.
+    pub steady: u32,
 }
 
 impl Classifier {
@@ -76,6 +96,16 @@ impl Classifier {
     /// (the brightness tolerance and the noise allowance stay).
     pub fn scaled(&self, fraction: f32) -> Self {
         Self {
+            chroma_step: self.chroma_step * fraction,
+            ..*self
+        }
+    }
+
+    /// The same test with both the brightness and the chromaticity
+    /// tolerances scaled by `fraction` (the noise allowance stays).
+    pub fn scaled_both(&self, fraction: f32) -> Self {
+        Self {
+            brightness_step: self.brightness_step * fraction,
             chroma_step: self.chroma_step * fraction,
             ..*self
         }
@@ -185,6 +215,13 @@ struct Block {
     /// 1 where an alive column's pixel is floor but, unlike the pixel below
     /// it, not close to it: a sharp step.
     edge: [u8; BLOCK],
+    /// 1 where the pixel of the row last classified was close to the floor
+    /// and its brightness steady (within the edge test's tolerances).
+    steady: [u8; BLOCK],
+    /// 1 where an alive column's pixel is close to the floor but, unlike the
+    /// pixel below it, its brightness not steady: a sharp step of
+    /// brightness alone.
+    bright_edge: [u8; BLOCK],
     /// The tracks' trend before the current row's update.
     trend_before: [[f32; BLOCK]; 3],
     /// Rows found not floor so far, the current one included.
@@ -196,7 +233,7 @@ struct Block {
 /// a block's columns compile to vector instructions.
 ///
 /// # Memory
-/// About 57 bytes a column (20 KB for 320 columns), rebuilt per image.
+/// About 59 bytes a column (20 KB for 320 columns), rebuilt per image.
 #[derive(Debug, Clone)]
 pub(crate) struct Lanes {
     width: usize,
@@ -227,6 +264,7 @@ impl Lanes {
         block.alive[i] = 1;
         // The seed below the first row scanned is floor.
         block.close[i] = 1;
+        block.steady[i] = 1;
     }
 
     /// Stops scanning column `u`.
@@ -318,6 +356,13 @@ impl Lanes {
         self.flagged(cols, |b| &b.edge)
     }
 
+    /// The columns in `cols` where [`Lanes::step`] found a sharp step of
+    /// brightness alone that stays within the edge test's chromaticity
+    /// tolerance, left to right.
+    pub fn bright_edge_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
+        self.flagged(cols, |b| &b.bright_edge)
+    }
+
     fn flagged(
         &self,
         cols: std::ops::Range<usize>,
@@ -353,6 +398,7 @@ fn step_blocks(
         if u64::from_ne_bytes(block.alive) == 0 {
             block.off = [0; BLOCK];
             block.edge = [0; BLOCK];
+            block.bright_edge = [0; BLOCK];
             continue;
         }
         for c in 0..3 {
@@ -364,6 +410,7 @@ fn step_blocks(
         }
         let mut floor = [0u32; BLOCK];
         let mut close = [0u32; BLOCK];
+        let mut steady = [0u32; BLOCK];
         for i in 0..BLOCK {
             let q = [
                 block.predicted[0][i],
@@ -371,13 +418,18 @@ fn step_blocks(
                 block.predicted[2][i],
             ];
             let p = [block.pixel[0][i], block.pixel[1][i], block.pixel[2][i]];
-            (floor[i], close[i]) = classifier.masks(&p, &q, edge_classifier.chroma_step);
+            let masks = classifier.masks(&p, &q, edge_classifier);
+            (floor[i], close[i], steady[i]) = (masks.floor, masks.close, masks.steady);
         }
         for i in 0..BLOCK {
             block.off[i] = (floor[i] == 0) as u8 & block.alive[i];
             block.off_rows[i] += block.off[i] as u32;
             block.edge[i] = (floor[i] as u8) & (close[i] == 0) as u8 & block.close[i] & block.alive[i];
             block.close[i] = close[i] as u8;
+            let steady_close = (close[i] & steady[i]) as u8;
+            block.bright_edge[i] =
+                (close[i] as u8) & (steady[i] == 0) as u8 & block.steady[i] & block.alive[i];
+            block.steady[i] = steady_close;
         }
         block.trend_before = block.trend;
         // Weights 1 (take the pixel in) or 0 (coast): the choice as
