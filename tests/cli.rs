@@ -30,6 +30,21 @@ fn bad_input_is_a_one_line_error_naming_the_file() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("no-such-dataset"), "{err}");
 
+    // Each cause once: the reader's message already quotes the system's.
+    assert_eq!(err.matches("os error").count(), 1, "{err}");
+
+    // A file that is not a manifest (a glob over a folder of datasets
+    // catches its README too) says so.
+    let readme = dir.path().join("README.md");
+    std::fs::write(&readme, "# datasets").unwrap();
+    let out = pirouette(&["camera", readme.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("README.md") && err.contains("not a dataset"),
+        "{err}"
+    );
+
     let bad = dir.path().join("bad");
     std::fs::create_dir_all(&bad).unwrap();
     std::fs::write(bad.join("dataset.json"), "{\"format\": \"rop-dataset/1\", ").unwrap();

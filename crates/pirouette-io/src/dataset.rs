@@ -281,6 +281,13 @@ impl Dataset {
     /// image exists.
     pub fn open(root: &Path) -> Result<Self, IoError> {
         let root = if root.is_file() {
+            // A manifest names its dataset; any other file is no dataset.
+            if root.file_name() != Some(std::ffi::OsStr::new("dataset.json")) {
+                return Err(IoError::invalid(
+                    root,
+                    "not a dataset: a dataset is a folder with a dataset.json",
+                ));
+            }
             root.parent().unwrap_or(Path::new(".")).to_owned()
         } else {
             root.to_owned()
