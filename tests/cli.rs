@@ -30,7 +30,19 @@ fn bad_input_is_a_one_line_error_naming_the_file() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("no-such-dataset"), "{err}");
 
-    // Each cause once: the reader's message already quotes the system's.
+    // Each cause once: no part of the line repeats.
+    let parts: Vec<&str> = err.trim().split(": ").collect();
+    let distinct: std::collections::HashSet<&&str> = parts.iter().collect();
+    assert_eq!(distinct.len(), parts.len(), "{err}");
+
+    // A folder without a manifest: the reader's message already quotes the
+    // operating system's, which does not follow it again.
+    let empty = dir.path().join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let out = pirouette(&["camera", empty.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("dataset.json"), "{err}");
     assert_eq!(err.matches("os error").count(), 1, "{err}");
 
     // A file that is not a manifest (a glob over a folder of datasets
