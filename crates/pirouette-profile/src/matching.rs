@@ -142,7 +142,8 @@ pub enum Evidence {
     /// Fallback: the overlap is featureless (open floor): the aperture problem.
     Aperture,
     /// Fallback: another shift matches nearly as well (flat or periodic cost),
-    /// or the best lies at the window's edge.
+    /// the best lies at the window's edge, or no shift a basin away from it
+    /// can be compared (its distinctness untested).
     Ambiguous,
 }
 
@@ -473,7 +474,13 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
             f64::INFINITY
         }
     };
-    let z_best = z(other_min).min(z(arm));
+    // A basin neither of whose arms can be weighed was never tested: its
+    // minimum verifies nothing, however alone it stands.
+    let z_best = if arm.is_finite() {
+        z(other_min).min(z(arm))
+    } else {
+        0.0
+    };
     let confidence = if z_best.is_finite() {
         z_best / (z_best + 3.0)
     } else {
@@ -1342,6 +1349,39 @@ mod tests {
         let est = match_turn(&a, &a.clone(), 0.5, &MatchConfig::default());
         assert!(est.fallback && est.evidence == Evidence::Aperture);
         assert_eq!(est.turn_rad, 0.5);
+    }
+
+    /// Two views that share a 12° sliver, with a clear profile in it: the
+    /// true shift matches exactly, but no shift three bins or more away
+    /// overlaps enough to be compared, so the basin's arms cannot be
+    /// weighed and the match is not trusted. With three bins more of
+    /// overlap each way it is.
+    #[test]
+    fn a_minimum_whose_basin_cannot_be_tested_is_not_trusted() {
+        let w = 1f64.to_radians();
+        let shared = |i: usize| 0.4 + 0.05 * (i as f32 * 1.7).sin() + 0.1 * (i % 4 == 0) as u8 as f32;
+        let views = |seen: usize| {
+            let mut before = Rop::covering(-0.5, 0.5, w, 0.9).unwrap();
+            let mut after = before.clone();
+            before.range_m.iter_mut().for_each(|r| *r = f32::NAN);
+            after.range_m.iter_mut().for_each(|r| *r = f32::NAN);
+            // After a turn by 20 bins, after's bin i sees before's i + 20.
+            for i in 10..10 + seen {
+                after.range_m[i] = shared(i);
+                before.range_m[i + 20] = shared(i);
+            }
+            (before, after)
+        };
+        let turn = 20.0 * w;
+        let (before, after) = views(12);
+        let est = match_turn(&before, &after, turn, &MatchConfig::default());
+        assert!(est.fallback, "{est:?}");
+        assert_eq!(est.evidence, Evidence::Ambiguous);
+        assert_eq!(est.confidence, 0.0);
+        let (before, after) = views(18);
+        let est = match_turn(&before, &after, turn, &MatchConfig::default());
+        assert!(!est.fallback, "{est:?}");
+        assert!((est.turn_rad - turn).abs() < 0.1 * w, "{est:?}");
     }
 
     #[test]
