@@ -198,7 +198,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
                     tally.add(rop, t);
                 }
             }
-            print_scores(&ds.manifest.name, model, &tally, a.json)?;
+            print_scores(&ds.label(), model, &tally, a.json)?;
             match overall.iter_mut().find(|(m, _)| *m == model) {
                 Some((_, t)) => t.merge(&tally),
                 None => overall.push((model, tally)),

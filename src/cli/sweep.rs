@@ -213,7 +213,7 @@ pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
         }
         let sweeps = a.options.run(&ds)?;
         let tally = tally_sweeps(&ds, &sweeps).expect("truth poses checked above");
-        print_scores(&ds.manifest.name, &tally, a.json)?;
+        print_scores(&ds.label(), &tally, a.json)?;
         overall.merge(&tally);
     }
     if a.datasets.len() > 1 {

@@ -204,7 +204,7 @@ pub fn evaluate_map_dir(
         tolerance_m,
     );
     Ok(MapReport {
-        dataset: ds.manifest.name.clone(),
+        dataset: ds.label(),
         trajectory,
         commanded,
         sweeps,

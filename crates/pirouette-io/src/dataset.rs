@@ -251,6 +251,18 @@ pub struct Dataset {
     pub manifest: Manifest,
 }
 
+impl Dataset {
+    /// A name for reports: the folder's name, which tells apart the
+    /// renders of one scene (their manifests share the scene's name); the
+    /// manifest's name where the folder has none (`.`).
+    pub fn label(&self) -> String {
+        std::fs::canonicalize(&self.root)
+            .ok()
+            .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .unwrap_or_else(|| self.manifest.name.clone())
+    }
+}
+
 pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, IoError> {
     let text = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
     serde_json::from_slice(&text).map_err(|e| IoError::Json {
