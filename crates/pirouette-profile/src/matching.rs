@@ -314,6 +314,10 @@ struct CostCurve {
     /// The colour term's sum per shift (it does not depend on the range
     /// noise).
     colour_cost: Vec<f32>,
+    /// Per shift, the bins of the profile after the turn that whole blocks
+    /// of the inner loop compared (where both profiles could be seen);
+    /// every other pair adds nothing.
+    compared: Vec<std::ops::Range<usize>>,
 }
 
 impl CostCurve {
@@ -344,10 +348,11 @@ impl CostCurve {
             "the DCT term is no sum over pairs"
         );
         let inv_s = 1.0 / inverse_range_sigma;
+        let compared = &self.compared;
         let range_costs = match config.measure {
-            Measure::Absolute => range_sums(gaps, len, inv_s, |e: f32| e.abs()),
-            Measure::Squared | Measure::Dct => range_sums(gaps, len, inv_s, |e: f32| e * e),
-            Measure::Robust => range_sums(gaps, len, inv_s, |e: f32| (e * e).min(9.0)),
+            Measure::Absolute => range_sums(gaps, len, compared, inv_s, |e: f32| e.abs()),
+            Measure::Squared | Measure::Dct => range_sums(gaps, len, compared, inv_s, |e: f32| e * e),
+            Measure::Robust => range_sums(gaps, len, compared, inv_s, |e: f32| (e * e).min(9.0)),
         };
         for (j, cost) in self.cost.iter_mut().enumerate() {
             *cost = if self.overlap[j] == 0 {
@@ -825,8 +830,16 @@ fn cost_curve(
         informative: vec![0; n],
         colour_pairs: vec![0; n],
         colour_cost: vec![0.0; n],
+        compared: vec![0..0; n],
     };
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
+    // The bins each profile saw, first to last.
+    let seen = |inv: &[f32]| {
+        let first = inv.iter().position(|x| !x.is_nan()).unwrap_or(inv.len());
+        let last = inv.iter().rposition(|x| !x.is_nan()).map_or(first, |l| l + 1);
+        first..last
+    };
+    let (seen_a, seen_b) = (seen(&sa.inv), seen(&sb.inv));
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
     let len = sa.inv.len();
     gaps.clear();
@@ -834,20 +847,29 @@ fn cost_curve(
     let mut xa = Vec::new();
     let mut xb = Vec::new();
     for j in 0..n {
-        let b = j..j + len;
+        // After's bin i meets before's sb[i + j]: both seen only within
+        // `lo..hi`, widened to whole blocks so that each bin keeps its lane.
+        let lo = seen_a.start.max(seen_b.start.saturating_sub(j));
+        let hi = seen_a.end.min(seen_b.end.saturating_sub(j));
+        if lo >= hi {
+            continue;
+        }
+        let blocks = lo / LANES * LANES..hi.div_ceil(LANES) * LANES;
+        curve.compared[j] = blocks.clone();
+        let b = j + blocks.start..j + blocks.end;
         let pair = Pair {
-            ia: &sa.inv,
+            ia: &sa.inv[blocks.clone()],
             ib: &sb.inv[b.clone()],
-            ha: &sa.inv_hi,
+            ha: &sa.inv_hi[blocks.clone()],
             hb: &sb.inv_hi[b.clone()],
-            ra: &sa.chroma_r,
+            ra: &sa.chroma_r[blocks.clone()],
             rb: &sb.chroma_r[b.clone()],
-            ga: &sa.chroma_g,
+            ga: &sa.chroma_g[blocks.clone()],
             gb: &sb.chroma_g[b],
             inv_s,
             chroma_s,
         };
-        let out = &mut gaps[j * len..(j + 1) * len];
+        let out = &mut gaps[j * len + blocks.start..j * len + blocks.end];
         let sums = match config.measure {
             Measure::Absolute => pair.sums(|e: f32| e.abs(), out),
             Measure::Squared | Measure::Dct => pair.sums(|e: f32| e * e, out),
@@ -867,7 +889,7 @@ fn cost_curve(
         if let Some(planner) = planner.as_mut() {
             xa.clear();
             xb.clear();
-            for i in 0..len {
+            for i in 0..pair.ia.len() {
                 if !pair.ia[i].is_nan() && !pair.ib[i].is_nan() {
                     xa.push(pair.ia[i] * inv_s);
                     xb.push(pair.ib[i] * inv_s);
@@ -890,13 +912,20 @@ fn cost_curve(
 
 /// Per shift, the range term over `len` stored gaps (0 for pairs that are
 /// not informative, which cost nothing under every measure), summed in the
-/// lanes of [`Pair::sums`].
+/// lanes of [`Pair::sums`] over the blocks it `compared`.
 #[inline(always)]
-fn range_sums(gaps: &[f32], len: usize, inv_s: f32, rho: impl Fn(f32) -> f32) -> Vec<f32> {
+fn range_sums(
+    gaps: &[f32],
+    len: usize,
+    compared: &[std::ops::Range<usize>],
+    inv_s: f32,
+    rho: impl Fn(f32) -> f32,
+) -> Vec<f32> {
     gaps.chunks_exact(len)
-        .map(|shift| {
+        .zip(compared)
+        .map(|(shift, blocks)| {
             let mut acc = [0f32; LANES];
-            for block in shift.chunks_exact(LANES) {
+            for block in shift[blocks.clone()].chunks_exact(LANES) {
                 for l in 0..LANES {
                     acc[l] += rho(block[l] * inv_s);
                 }
