@@ -160,6 +160,12 @@ pub fn profile(a: ProfileArgs) -> Result<()> {
 pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
     let config = a.options.config(a.bin_deg)?;
     let mut overall: Vec<(ModelKind, ProfileTally)> = Vec::new();
+    // Every dataset opened before the table starts.
+    let datasets = a
+        .datasets
+        .iter()
+        .map(|path| super::open_dataset(path))
+        .collect::<Result<Vec<_>>>()?;
     if !a.json {
         outln!(
             "{:<18} {:<8} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7} {:>7}",
@@ -174,8 +180,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
             "free"
         )?;
     }
-    for path in &a.datasets {
-        let ds = super::open_dataset(path)?;
+    for ds in &datasets {
         let models = match a.options.model() {
             Some(m) => vec![m],
             None if ds.manifest.camera.pinhole.is_some() => vec![ModelKind::Pinhole, ModelKind::Paper],

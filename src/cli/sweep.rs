@@ -187,6 +187,21 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
 /// `pirouette eval sweep`.
 pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
     let mut overall = SweepTally::default();
+    // Every dataset opened and checked before the table starts.
+    let datasets = a
+        .datasets
+        .iter()
+        .map(|path| {
+            let ds = super::open_dataset(path)?;
+            if ds.truth_poses().is_none() {
+                bail!(
+                    "{}: frames without truth poses cannot be evaluated",
+                    ds.manifest_path().display()
+                );
+            }
+            Ok(ds)
+        })
+        .collect::<Result<Vec<_>>>()?;
     if !a.json {
         outln!(
             "{:<16} {:>5} {:>9} {:>5} {:>9} {:>9} {:>9} {:>6} {:>10} {:>9} {:>9}",
@@ -203,16 +218,9 @@ pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
             "cmd hd"
         )?;
     }
-    for path in &a.datasets {
-        let ds = super::open_dataset(path)?;
-        if ds.truth_poses().is_none() {
-            bail!(
-                "{}: frames without truth poses cannot be evaluated",
-                ds.manifest_path().display()
-            );
-        }
-        let sweeps = a.options.run(&ds)?;
-        let tally = tally_sweeps(&ds, &sweeps).expect("truth poses checked above");
+    for ds in &datasets {
+        let sweeps = a.options.run(ds)?;
+        let tally = tally_sweeps(ds, &sweeps).expect("truth poses checked above");
         print_scores(&ds.label(), &tally, a.json)?;
         overall.merge(&tally);
     }
