@@ -910,44 +910,40 @@ fn median_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     })
 }
 
-/// Standard deviation of one pixel's grey (the mean of its channels), from
-/// vertical second differences in the bottom rows, robustly (median
-/// absolute value), as [`noise_sigma`] does for the smoothed channels.
+/// Standard deviation of one pixel's grey (the mean of its channels); never
+/// below the quantisation of a mean of three 8-bit values.
 fn grey_noise_sigma(px: &[u8], width: u32, height: u32) -> f32 {
-    const ROWS: u32 = 16;
-    let grey = |u: u32, v: u32| {
+    second_difference_sigma(width, height, 0.29 / 3f32.sqrt(), |u, v| {
         let i = (v * width + u) as usize * 3;
-        (px[i] as f32 + px[i + 1] as f32 + px[i + 2] as f32) / 3.0
-    };
-    let mut d2 = Vec::with_capacity(2048);
-    let top = height.saturating_sub(ROWS).max(1);
-    for v in (top..height - 1).step_by(2) {
-        for u in (width / 4..3 * width / 4).step_by(3) {
-            d2.push((grey(u, v - 1) - 2.0 * grey(u, v) + grey(u, v + 1)).abs());
-        }
-    }
-    if d2.is_empty() {
-        return 1.0;
-    }
-    let mid = d2.len() / 2;
-    let (_, med, _) = d2.select_nth_unstable_by(mid, f32::total_cmp);
-    // Never below the quantisation of a mean of three 8-bit values.
-    (1.4826 * *med / 6f32.sqrt()).max(0.29 / 3f32.sqrt())
+        [(px[i] as f32 + px[i + 1] as f32 + px[i + 2] as f32) / 3.0]
+    })
 }
 
 /// Standard deviation of the noise of a 3-pixel average along the scan
-/// direction, from vertical second differences in the bottom rows (which
-/// cancel steady brightness trends), robustly (median absolute value).
+/// direction, per channel; never below the 8-bit quantisation step's.
 fn noise_sigma(px: &[u8], width: u32, height: u32) -> f32 {
+    second_difference_sigma(width, height, 0.29, |u, v| smoothed(px, width, u, v))
+}
+
+/// The noise's standard deviation in some values per pixel (`values(u,
+/// v)`, one or more), from their vertical second differences in the
+/// bottom rows (which cancel steady brightness trends), robustly: a second
+/// difference of independent values has variance 6σ², and 1.4826 times
+/// the median absolute value is σ for normal noise. Never below `least`;
+/// 1 where the image has no such rows.
+fn second_difference_sigma<const K: usize>(
+    width: u32,
+    height: u32,
+    least: f32,
+    values: impl Fn(u32, u32) -> [f32; K],
+) -> f32 {
     const ROWS: u32 = 16;
     let mut d2 = Vec::with_capacity(2048);
     let top = height.saturating_sub(ROWS).max(1);
     for v in (top..height - 1).step_by(2) {
         for u in (width / 4..3 * width / 4).step_by(3) {
-            let a = smoothed(px, width, u, v - 1);
-            let b = smoothed(px, width, u, v);
-            let c = smoothed(px, width, u, v + 1);
-            for k in 0..3 {
+            let (a, b, c) = (values(u, v - 1), values(u, v), values(u, v + 1));
+            for k in 0..K {
                 d2.push((a[k] - 2.0 * b[k] + c[k]).abs());
             }
         }
@@ -957,9 +953,7 @@ fn noise_sigma(px: &[u8], width: u32, height: u32) -> f32 {
     }
     let mid = d2.len() / 2;
     let (_, med, _) = d2.select_nth_unstable_by(mid, f32::total_cmp);
-    // A second difference of independent values has variance 6σ²; never
-    // below the 8-bit quantisation step's standard deviation.
-    (1.4826 * *med / 6f32.sqrt()).max(0.29)
+    (1.4826 * *med / 6f32.sqrt()).max(least)
 }
 
 #[cfg(test)]
@@ -1231,6 +1225,27 @@ mod tests {
         }
     }
 
+    /// Of the columns of `img` scanned with `config`: those whose boundary
+    /// lies within `tolerance` rows of `row`, and those that see no
+    /// obstacle.
+    fn base_and_clear(
+        config: VisionConfig,
+        img: &image::RgbImage,
+        row: f32,
+        tolerance: f32,
+    ) -> (usize, usize) {
+        let b = RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap();
+        let at_base = b
+            .iter()
+            .filter(|c| matches!(c, ColumnBoundary::Obstacle { row: r, .. } if (r - row).abs() < tolerance))
+            .count();
+        let clear = b
+            .iter()
+            .filter(|c| matches!(c, ColumnBoundary::Clear { .. }))
+            .count();
+        (at_base, clear)
+    }
+
     /// A wall 12 % brighter than the floor and 3.5 % off in chromaticity
     /// lies inside the floor's tolerances, (12/18)² + (3.5/5)² = 0.93: its
     /// sharp base is found by the edge cue and only by it. The same colour
@@ -1259,16 +1274,7 @@ mod tests {
                 edge_fraction,
                 ..VisionConfig::default()
             };
-            let b = RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap();
-            let at_base = b
-                .iter()
-                .filter(|c| matches!(c, ColumnBoundary::Obstacle { row, .. } if (row - 59.5).abs() < 0.6))
-                .count();
-            let clear = b
-                .iter()
-                .filter(|c| matches!(c, ColumnBoundary::Clear { .. }))
-                .count();
-            (at_base, clear)
+            base_and_clear(config, img, 59.5, 0.6)
         };
         let sharp = image(wall, 0.0);
         assert_eq!(scan(&sharp, 0.5), (320, 0), "the wall's base, every column");
@@ -1323,16 +1329,7 @@ mod tests {
                 texture_ratio,
                 ..VisionConfig::default()
             };
-            let b = RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap();
-            let at_base = b
-                .iter()
-                .filter(|c| matches!(c, ColumnBoundary::Obstacle { row, .. } if (row - 59.5).abs() < 1.5))
-                .count();
-            let clear = b
-                .iter()
-                .filter(|c| matches!(c, ColumnBoundary::Clear { .. }))
-                .count();
-            (at_base, clear)
+            base_and_clear(config, img, 59.5, 1.5)
         };
         let wall = image(false);
         let (found, clear) = scan(&wall, 0.6);
