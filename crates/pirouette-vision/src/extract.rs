@@ -518,41 +518,31 @@ impl RopExtractor {
                     },
                 );
             }
-            // Sharp steps within the floor's tolerances: followed over their
-            // runs at once, queued only when they are an obstacle's base.
-            for u in lanes.edge_columns(cols.clone()) {
-                if !past_top[u] && self.edge_confirms(px, u as u32, v, lanes.coasted(u), &edge_classifier) {
-                    candidates.push(
-                        u,
-                        Candidate {
-                            row: v,
-                            lo: v,
-                            off_before: lanes.off_rows(u),
-                            floor: lanes.predicted(u),
-                            edge: true,
-                        },
-                    );
-                }
-            }
-            // Sharp steps of brightness alone: a surface change only where
-            // the texture drops above them.
-            if self.config.texture_ratio > 0.0 {
-                for u in lanes.bright_edge_columns(cols.clone()) {
-                    if !past_top[u]
-                        && self.bright_edge_confirms(px, u as u32, v, &bright_classifier, grey_sigma)
-                    {
-                        candidates.push(
-                            u,
-                            Candidate {
-                                row: v,
-                                lo: v,
-                                off_before: lanes.off_rows(u),
-                                floor: lanes.predicted(u),
-                                edge: true,
-                            },
-                        );
-                    }
-                }
+            // Sharp steps within the floor's tolerances, of chromaticity and
+            // (with the texture cue) of brightness alone where the texture
+            // drops above them: followed over their runs at once, queued
+            // only when they are an obstacle's base.
+            let chroma_edges = lanes.edge_columns(cols.clone()).filter(|&u| {
+                !past_top[u] && self.edge_confirms(px, u as u32, v, lanes.coasted(u), &edge_classifier)
+            });
+            let bright_edges = (self.config.texture_ratio > 0.0)
+                .then(|| lanes.bright_edge_columns(cols.clone()))
+                .into_iter()
+                .flatten()
+                .filter(|&u| {
+                    !past_top[u] && self.bright_edge_confirms(px, u as u32, v, &bright_classifier, grey_sigma)
+                });
+            for u in chroma_edges.chain(bright_edges) {
+                candidates.push(
+                    u,
+                    Candidate {
+                        row: v,
+                        lo: v,
+                        off_before: lanes.off_rows(u),
+                        floor: lanes.predicted(u),
+                        edge: true,
+                    },
+                );
             }
             // Decide the candidates whose runs end here, in scan order: the
             // first that is an obstacle ends the column.
