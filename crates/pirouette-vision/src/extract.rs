@@ -649,12 +649,17 @@ impl RopExtractor {
         let (m, n) = (self.width, self.height);
         // Rows above the step and below it, leaving out the row of the
         // step and the one under it (the boundary may blur over both).
-        let above = v.saturating_sub(TEXTURE_ROWS)..v;
-        let below = (v + 2).min(n)..(v + 2 + TEXTURE_ROWS).min(n);
-        if above.len() < TEXTURE_MIN_ROWS || below.len() < TEXTURE_MIN_ROWS {
+        // The floor's level and texture are judged over two windows below
+        // the step: nearer the image's bottom there is too little floor.
+        if v + 2 + 2 * TEXTURE_ROWS > n {
             return false;
         }
-        let level_rows = (v + 2).min(n)..(v + 2 + 2 * TEXTURE_ROWS).min(n);
+        let above = v.saturating_sub(TEXTURE_ROWS)..v;
+        let below = v + 2..v + 2 + TEXTURE_ROWS;
+        if above.len() < TEXTURE_MIN_ROWS {
+            return false;
+        }
+        let level_rows = v + 2..v + 2 + 2 * TEXTURE_ROWS;
         let Some(floor) = median_of(level_rows.map(|w| smoothed(px, m, u, w))) else {
             return false;
         };
@@ -686,17 +691,15 @@ impl RopExtractor {
         }
         // The floor's texture: the lesser of two windows below, so that a
         // speck in one of them does not count as the floor's grain.
-        let lower = (v + 2 + TEXTURE_ROWS).min(n)..(v + 2 + 2 * TEXTURE_ROWS).min(n);
+        let lower = v + 2 + TEXTURE_ROWS..v + 2 + 2 * TEXTURE_ROWS;
         let (Some(above), Some(mut below)) =
             (texture_energy(px, m, u, above), texture_energy(px, m, u, below))
         else {
             return false;
         };
-        if lower.len() >= TEXTURE_MIN_ROWS {
-            if let Some(t) = texture_energy(px, m, u, lower) {
-                if t.beyond_noise(grey_sigma) < below.beyond_noise(grey_sigma) {
-                    below = t;
-                }
+        if let Some(t) = texture_energy(px, m, u, lower) {
+            if t.beyond_noise(grey_sigma) < below.beyond_noise(grey_sigma) {
+                below = t;
             }
         }
         let (s_above, s_below) = (above.beyond_noise(grey_sigma), below.beyond_noise(grey_sigma));
@@ -769,7 +772,8 @@ impl RopExtractor {
 /// Rows each side of a sharp step whose texture is compared.
 const TEXTURE_ROWS: u32 = 6;
 
-/// The fewest rows a side for a texture comparison.
+/// The fewest rows above a step for a texture comparison (a wall near the
+/// image's top shows only a few).
 const TEXTURE_MIN_ROWS: usize = 3;
 
 /// Half-width of the texture window, columns: the band-pass's wide mean
