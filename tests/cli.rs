@@ -57,6 +57,15 @@ fn bad_input_is_a_one_line_error_naming_the_file() {
         "{err}"
     );
 
+    // Bad settings are named before any dataset is read.
+    let out = pirouette(&["profile", missing.to_str().unwrap(), "--texture-ratio", "1.5"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("texture ratio") && !err.contains("no-such-dataset"),
+        "{err}"
+    );
+
     let bad = dir.path().join("bad");
     std::fs::create_dir_all(&bad).unwrap();
     std::fs::write(bad.join("dataset.json"), "{\"format\": \"rop-dataset/1\", ").unwrap();

@@ -41,6 +41,7 @@ impl Default for MapOptions {
 impl MapOptions {
     /// The mapping settings' own checks (before any image is read).
     fn check(&self) -> Result<()> {
+        self.sweep.check()?;
         if !(self.resolution.is_finite() && self.resolution >= 0.001 && self.resolution <= 1.0) {
             bail!("--resolution {} m is outside [0.001, 1]", self.resolution);
         }
@@ -196,6 +197,7 @@ pub fn evaluate(ds: &Dataset, profiled: &Profiled, dir: &Path, tolerance_cells: 
 
 /// `pirouette map`.
 pub fn map(a: MapArgs) -> Result<()> {
+    a.options.check()?;
     let ds = open_camera_dataset(&a.dataset)?;
     let mapped = map_dataset(&ds, &a.options)?;
     write_map(&ds, &mapped, &a.out)?;

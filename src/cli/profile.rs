@@ -54,7 +54,7 @@ impl ProfileOptions {
             bail!("--bin-deg {bin_deg} is outside 0.05..10");
         }
         let filter: OutlierFilter = self.filter.parse().map_err(anyhow::Error::msg)?;
-        Ok(VisionConfig {
+        let config = VisionConfig {
             bin_width_rad: bin_deg.to_radians(),
             min_obstacle_height_m: self.min_obstacle_height,
             min_brightness_step: self.min_brightness_step,
@@ -64,7 +64,11 @@ impl ProfileOptions {
             texture_ratio: self.texture_ratio,
             filter,
             ..VisionConfig::default()
-        })
+        };
+        // Checked before any dataset is read, so that the error names the
+        // settings, not a dataset.
+        config.validate()?;
+        Ok(config)
     }
 }
 
@@ -109,8 +113,9 @@ fn json_value(x: f64) -> serde_json::Value {
 
 /// `pirouette profile`.
 pub fn profile(a: ProfileArgs) -> Result<()> {
+    let config = a.options.config(a.bin_deg)?;
     let ds = super::open_dataset(&a.dataset)?;
-    let extractor = pipeline::extractor(&ds, a.options.model(), a.options.config(a.bin_deg)?)?;
+    let extractor = pipeline::extractor(&ds, a.options.model(), config)?;
     let bar = super::progress(ds.manifest.frames.len(), "profile");
     let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
     bar.finish_and_clear();

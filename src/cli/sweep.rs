@@ -47,6 +47,13 @@ impl SweepOptions {
         })
     }
 
+    /// Checks every setting, before any dataset is read.
+    pub fn check(&self) -> Result<()> {
+        self.profile.config(self.bin_deg)?;
+        self.config()?;
+        Ok(())
+    }
+
     fn run(&self, ds: &pirouette::io::Dataset) -> Result<Vec<DatasetSweep>> {
         Ok(self.run_all(ds)?.sweeps)
     }
@@ -113,6 +120,7 @@ fn deg(x: f64) -> serde_json::Value {
 
 /// `pirouette sweep`.
 pub fn sweep(a: SweepArgs) -> Result<()> {
+    a.options.check()?;
     let ds = super::open_dataset(&a.dataset)?;
     let sweeps = a.options.run(&ds)?;
     for s in &sweeps {
@@ -186,6 +194,7 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
 
 /// `pirouette eval sweep`.
 pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
+    a.options.check()?;
     let mut overall = SweepTally::default();
     // Every dataset opened and checked before the table starts.
     let datasets = a

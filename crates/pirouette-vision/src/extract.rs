@@ -122,7 +122,9 @@ impl Default for VisionConfig {
 }
 
 impl VisionConfig {
-    fn check(&self) -> Result<(), VisionError> {
+    /// Whether the settings can be used: every field within the range its
+    /// doc gives.
+    pub fn validate(&self) -> Result<(), VisionError> {
         let bad = |p: &str| Err(VisionError::BadConfig { problem: p.into() });
         if !(self.bin_width_rad.is_finite() && self.bin_width_rad > 0.0) {
             return bad("bin width must be positive");
@@ -219,7 +221,7 @@ impl RopExtractor {
         max_range_m: f64,
         config: VisionConfig,
     ) -> Result<Self, VisionError> {
-        config.check()?;
+        config.validate()?;
         if !(max_range_m.is_finite() && max_range_m > 0.0) {
             return Err(VisionError::BadConfig {
                 problem: format!("max range {max_range_m} must be positive"),
