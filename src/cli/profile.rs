@@ -198,9 +198,9 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
             bail!("{}: no truth/rop files to evaluate against", ds.root.display());
         }
         for model in models {
-            let extractor = pipeline::extractor(&ds, Some(model), config.clone())?;
+            let extractor = pipeline::extractor(ds, Some(model), config.clone())?;
             let bar = super::progress(ds.manifest.frames.len(), "profile");
-            let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;
+            let rops = pipeline::profiles(ds, &extractor, || bar.inc(1))?;
             bar.finish_and_clear();
             let mut tally = ProfileTally::default();
             for (rop, truth) in rops.iter().zip(&truths) {

@@ -649,13 +649,13 @@ impl RopExtractor {
     /// grey), and the floor's must stand out of that noise.
     fn bright_edge_confirms(&self, px: &[u8], u: u32, v: u32, both: &Classifier, grey_sigma: f32) -> bool {
         let (m, n) = (self.width, self.height);
-        // Rows above the step and below it, leaving out the row of the
-        // step and the one under it (the boundary may blur over both).
         // The floor's level and texture are judged over two windows below
         // the step: nearer the image's bottom there is too little floor.
         if v + 2 + 2 * TEXTURE_ROWS > n {
             return false;
         }
+        // Rows above the step and below it, leaving out the row of the
+        // step and the one under it (the boundary may blur over both).
         let above = v.saturating_sub(TEXTURE_ROWS)..v;
         let below = v + 2..v + 2 + TEXTURE_ROWS;
         if above.len() < TEXTURE_MIN_ROWS {
@@ -779,7 +779,8 @@ const TEXTURE_ROWS: u32 = 6;
 const TEXTURE_MIN_ROWS: usize = 3;
 
 /// Half-width of the texture window, columns: the band-pass's wide mean
-/// spans `2·TEXTURE_HALF + 1` columns, and so many centres are averaged.
+/// spans `2·TEXTURE_HALF + 1` columns, and the median is taken over so
+/// many centres a row.
 const TEXTURE_HALF: u32 = 7;
 
 /// The texture of a window of rows around one column (see
