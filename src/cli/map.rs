@@ -293,6 +293,12 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
     };
     show("map", &r.map)?;
     show("map aligned", &r.map_aligned)?;
+    outln!(
+        "{:<12} turns the map by {:+.2}° and moves its origin {:.2} cm",
+        "",
+        r.alignment.heading_deg,
+        r.alignment.shift_m * 100.0
+    )?;
     show("true poses", &r.true_pose_map)?;
     outln!(
         "F1 is {:.1} % of the true-pose map's ({:.1} % aligned; tolerance {:.1} cm)",

@@ -80,8 +80,9 @@ enum EvalCommand {
     /// motion's), per-sweep errors, and precision, recall and F1 of the
     /// occupied cells within 2 cells of the true obstacle outlines (recall
     /// over the outline visible from the true poses; in the map frame and
-    /// after the trajectory's best-fit alignment), beside those of a map
-    /// built from the true poses.
+    /// after the trajectory's best-fit alignment, with how far that
+    /// alignment turns and moves the map), beside those of a map built
+    /// from the true poses.
     Map(map::EvalMapArgs),
 }
 

@@ -36,6 +36,9 @@ pub struct MapReport {
     pub map: MapQuality,
     /// The same after the trajectory's best-fit rigid alignment.
     pub map_aligned: MapQuality,
+    /// That alignment: how far the map as a whole is turned and moved from
+    /// where its first frame puts it.
+    pub alignment: Alignment,
     /// The same for a map of the same profiles from the true poses.
     pub true_pose_map: MapQuality,
     /// `map.f1 / true_pose_map.f1`.
@@ -47,6 +50,17 @@ pub struct MapReport {
     /// The point the robot turns about, as mapping took it from the turns
     /// and as the true poses fit it.
     pub pivot: PivotScores,
+}
+
+/// The best-fit rigid alignment of an estimated trajectory onto the true
+/// one, map frame: a map whose shape is right but whose first frame erred
+/// is turned and moved by about that frame's error.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Alignment {
+    /// Rotation, degrees (counter-clockwise).
+    pub heading_deg: f64,
+    /// Where it moves the map frame's origin, metres.
+    pub shift_m: f64,
 }
 
 /// The point the robot turns about, in its own frame (x forward, y left),
@@ -212,6 +226,10 @@ pub fn evaluate_map_dir(
         f1_ratio_aligned: map_aligned.f1 / true_pose_map.f1,
         map,
         map_aligned,
+        alignment: Alignment {
+            heading_deg: align.theta.to_degrees(),
+            shift_m: align.translation().norm(),
+        },
         true_pose_map,
         tolerance_m,
         pivot: PivotScores {
