@@ -1,5 +1,9 @@
 //! Pictures for people: ROP diagrams, top-down floor views, boundary
-//! overlays, sweep diagrams and maps (PNG).
+//! overlays, sweep diagrams and maps (PNG), with their axes labelled.
+
+mod text;
+
+use text::{draw_text, text_height, text_width};
 
 use image::{Rgb, RgbImage};
 use imageproc::drawing::{draw_filled_circle_mut, draw_hollow_circle_mut, draw_line_segment_mut};
@@ -19,38 +23,78 @@ const GRID: Rgb<u8> = Rgb([215, 215, 215]);
 const LIMIT: Rgb<u8> = Rgb([240, 160, 40]);
 const MEASURED: Rgb<u8> = Rgb([210, 30, 30]);
 const TRUTH: Rgb<u8> = Rgb([30, 150, 60]);
+const LABEL: Rgb<u8> = Rgb([70, 70, 70]);
+/// Font scale of the labels (a 5 × 7 font: 14 pixels tall).
+const LABEL_SCALE: u32 = 2;
+
+/// A range label, metres, as the grid lines are spaced.
+fn metres(r: f64) -> String {
+    format!("{r:.1}")
+}
+
+/// Draws `text` centred on `(x, y)`, on a one-pixel white halo so that it
+/// reads on dark floor too.
+fn label_centred(img: &mut RgbImage, (x, y): (f32, f32), text: &str, colour: Rgb<u8>) {
+    let (w, h) = (text_width(text, LABEL_SCALE), text_height(LABEL_SCALE));
+    let (x0, y0) = (x as i32 - w as i32 / 2, y as i32 - h as i32 / 2);
+    for (dx, dy) in [
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+        (-1, 0),
+        (1, 0),
+        (-1, 1),
+        (0, 1),
+        (1, 1),
+    ] {
+        draw_text(img, x0 + dx, y0 + dy, text, BACKGROUND, LABEL_SCALE);
+    }
+    draw_text(img, x0, y0, text, colour, LABEL_SCALE);
+}
 
 /// The ROP diagram: range (up) against bearing (left of the robot on the
-/// left), grid lines every 10 cm and 10°, the soft range limit in orange,
-/// the measured profile in red and, when given, the true one in green.
+/// left), grid lines every 10 cm and 10° (ranges labelled every 20 cm,
+/// metres, bearings every 10°), the soft range limit in orange, the
+/// measured profile in red and, when given, the true one in green.
 pub fn rop_diagram(rop: &Rop, truth: Option<&Rop>) -> RgbImage {
     let (w, h) = (640u32, 400u32);
-    let margin = 20.0f32;
+    // Room for the range labels on the left and the bearings below.
+    let (left, right, top, bottom) = (48.0f32, 20.0f32, 20.0f32, 32.0f32);
     let mut img = RgbImage::from_pixel(w, h, BACKGROUND);
     let b_lo = rop.bearing_start_rad;
     let b_hi = rop.bin_centre_rad(rop.len().saturating_sub(1)) + rop.bin_width_rad / 2.0;
     let r_top = ((rop.max_range_m as f64 * 1.25) / GRID_RANGE_M).ceil() * GRID_RANGE_M;
-    let x_of = |b: f64| margin + ((b_hi - b) / (b_hi - b_lo)) as f32 * (w as f32 - 2.0 * margin);
-    let y_of = |r: f64| h as f32 - margin - (r / r_top) as f32 * (h as f32 - 2.0 * margin);
-    let mut r = 0.0;
-    while r <= r_top + 1e-9 {
-        draw_line_segment_mut(&mut img, (margin, y_of(r)), (w as f32 - margin, y_of(r)), GRID);
-        r += GRID_RANGE_M;
+    let x_of = |b: f64| left + ((b_hi - b) / (b_hi - b_lo)) as f32 * (w as f32 - left - right);
+    let y_of = |r: f64| h as f32 - bottom - (r / r_top) as f32 * (h as f32 - top - bottom);
+    let lines = (r_top / GRID_RANGE_M).round() as i64;
+    for k in 0..=lines {
+        let r = k as f64 * GRID_RANGE_M;
+        draw_line_segment_mut(&mut img, (left, y_of(r)), (w as f32 - right, y_of(r)), GRID);
+        // The top line carries the unit.
+        if k == lines {
+            label_centred(&mut img, (left / 2.0, y_of(r)), "m", LABEL);
+        } else if k % 2 == 0 {
+            label_centred(&mut img, (left / 2.0, y_of(r)), &metres(r), LABEL);
+        }
     }
-    let step = GRID_BEARING_DEG.to_radians();
-    let mut b = (b_lo / step).ceil() * step;
-    while b <= b_hi {
-        draw_line_segment_mut(&mut img, (x_of(b), margin), (x_of(b), h as f32 - margin), GRID);
-        b += step;
+    let (k_lo, k_hi) = (
+        (b_lo.to_degrees() / GRID_BEARING_DEG).ceil() as i64,
+        (b_hi.to_degrees() / GRID_BEARING_DEG).floor() as i64,
+    );
+    for k in k_lo..=k_hi {
+        let b = (k as f64 * GRID_BEARING_DEG).to_radians();
+        draw_line_segment_mut(&mut img, (x_of(b), top), (x_of(b), h as f32 - bottom), GRID);
+        let text = format!("{}°", k as f64 * GRID_BEARING_DEG);
+        label_centred(&mut img, (x_of(b), h as f32 - bottom / 2.0), &text, LABEL);
     }
     draw_line_segment_mut(
         &mut img,
-        (x_of(0.0), margin),
-        (x_of(0.0), h as f32 - margin),
+        (x_of(0.0), top),
+        (x_of(0.0), h as f32 - bottom),
         Rgb([160, 160, 160]),
     );
     let limit = y_of(rop.max_range_m as f64);
-    draw_line_segment_mut(&mut img, (margin, limit), (w as f32 - margin, limit), LIMIT);
+    draw_line_segment_mut(&mut img, (left, limit), (w as f32 - right, limit), LIMIT);
     for (profile, colour) in truth.map(|t| (t, TRUTH)).into_iter().chain([(rop, MEASURED)]) {
         let mut last: Option<(f32, f32)> = None;
         for i in 0..profile.len() {
@@ -70,8 +114,10 @@ pub fn rop_diagram(rop: &Rop, truth: Option<&Rop>) -> RgbImage {
 }
 
 /// A radial grid around `centre`: circles every [`GRID_RANGE_M`] out to
-/// `reach_m`, the soft limit in orange, rays every [`GRID_BEARING_DEG`] over
-/// `bearings_deg` (inclusive); `polar(range, bearing)` places a point.
+/// `reach_m` (every other one labelled in metres along the forward ray),
+/// the soft limit in orange with its value, rays every
+/// [`GRID_BEARING_DEG`] over `bearings_deg` (inclusive);
+/// `polar(range, bearing)` places a point.
 fn radial_grid(
     img: &mut RgbImage,
     centre: (f32, f32),
@@ -93,6 +139,21 @@ fn radial_grid(
         draw_line_segment_mut(img, centre, polar(reach_m, b.to_radians()), GRID);
         b += GRID_BEARING_DEG;
     }
+    // Every other circle labelled, metres, just right of the forward ray;
+    // the soft limit's value in orange left of it.
+    let h = text_height(LABEL_SCALE) as f32;
+    let rings = (reach_m / GRID_RANGE_M + 1e-9).floor() as i64;
+    for k in (2..=rings).step_by(2) {
+        let r = k as f64 * GRID_RANGE_M;
+        let (x, y) = polar(r, 0.0);
+        let text = metres(r);
+        let w = text_width(&text, LABEL_SCALE) as f32;
+        label_centred(img, (x + 4.0 + w / 2.0, y - h / 2.0 - 2.0), &text, LABEL);
+    }
+    let text = format!("{max_range_m:.2}");
+    let (x, y) = polar(max_range_m, 0.0);
+    let w = text_width(&text, LABEL_SCALE) as f32;
+    label_centred(img, (x - 4.0 - w / 2.0, y - h / 2.0 - 2.0), &text, LIMIT);
 }
 
 /// The top-down floor view: the camera image warped onto the floor (robot
@@ -217,7 +278,7 @@ pub fn sweep_diagram(sweep: &Rop) -> RgbImage {
 /// each cell a `scale`-pixel square (chosen so that the picture is at least
 /// 600 pixels across, at most 8 per cell); the trajectory in blue, each
 /// sweep's spot as a red disc with a tick along its first frame's heading,
-/// the map frame's origin as a green disc.
+/// the map frame's origin as a green disc, and a scale bar.
 pub fn map_picture(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2]) -> RgbImage {
     let longest = map.width.max(map.height).max(1);
     let scale = (600usize.div_ceil(longest)).clamp(1, 8) as u32;
@@ -262,7 +323,38 @@ pub fn map_picture(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2]) -> RgbImage
     }
     let (x, y) = to_canvas(Point2::new(0.0, 0.0));
     draw_filled_circle_mut(&mut img, (x as i32, y as i32), radius / 2, TRUTH);
+    scale_bar(&mut img, scale as f64 / map.resolution_m);
     img
+}
+
+/// A scale bar in the bottom left corner: the longest of 1 m, 50, 20 and
+/// 10 cm that takes at most a quarter of the picture's width, labelled.
+/// `px_per_m`: pixels per metre.
+fn scale_bar(img: &mut RgbImage, px_per_m: f64) {
+    let quarter = img.width() as f64 / 4.0;
+    let Some((m, text)) = [(1.0, "1 m"), (0.5, "50 cm"), (0.2, "20 cm"), (0.1, "10 cm")]
+        .into_iter()
+        .find(|(m, _)| m * px_per_m <= quarter)
+    else {
+        return;
+    };
+    let len = (m * px_per_m).round() as i32;
+    let (x0, y) = (12i32, img.height() as i32 - 12);
+    let ink = Rgb([20, 20, 20]);
+    for dy in -1..=1 {
+        let y = (y + dy) as f32;
+        draw_line_segment_mut(img, (x0 as f32, y), ((x0 + len) as f32, y), ink);
+    }
+    for x in [x0, x0 + len] {
+        draw_line_segment_mut(img, (x as f32, (y - 6) as f32), (x as f32, (y + 1) as f32), ink);
+    }
+    let h = text_height(LABEL_SCALE) as f32;
+    label_centred(
+        img,
+        (x0 as f32 + len as f32 / 2.0, y as f32 - 6.0 - h / 2.0 - 2.0),
+        text,
+        ink,
+    );
 }
 
 #[cfg(test)]
@@ -278,6 +370,40 @@ mod tests {
         let img = rop_diagram(&rop, Some(&rop.clone()));
         let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
         assert!(count(MEASURED) > 100 && count(LIMIT) > 100 && count(GRID) > 1000);
+        // Labels: ranges in the left margin, bearings in the bottom one,
+        // never over the plot.
+        let (mut left, mut below) = (0, 0);
+        for (x, y, p) in img.enumerate_pixels() {
+            if *p == LABEL {
+                assert!(x < 48 || y >= 400 - 32, "label ink in the plot at ({x}, {y})");
+                if x < 48 {
+                    left += 1
+                } else {
+                    below += 1
+                }
+            }
+        }
+        assert!(left > 200 && below > 200, "{left} {below}");
+    }
+
+    #[test]
+    fn sweep_diagram_labels_its_circles_and_the_limit() {
+        let mut rop = Rop::covering(-3.1, 3.1, 1f64.to_radians(), 0.9).unwrap();
+        rop.range_m.iter_mut().for_each(|r| *r = 0.5);
+        let img = sweep_diagram(&rop);
+        let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
+        // 0.2 … 1.0 m in grey, the limit (0.90) in orange beside its circle.
+        assert!(count(LABEL) > 5 * 60, "{}", count(LABEL));
+        // Orange off the limit's circle is its label.
+        let ring = 0.9 * (300.0 - 10.0) / (0.9 * 1.3);
+        let off_ring = img
+            .enumerate_pixels()
+            .filter(|(x, y, p)| {
+                let d = (*x as f64 - 300.0).hypot(*y as f64 - 300.0);
+                **p == LIMIT && (d - ring).abs() > 3.0
+            })
+            .count();
+        assert!(off_ring > 40, "{off_ring}");
     }
 
     #[test]
@@ -311,5 +437,11 @@ mod tests {
             img.pixels().any(|p| *p == Rgb([30, 90, 220])),
             "the trajectory is drawn"
         );
+        // 600 pixels a metre: 20 cm (120 pixels) is the longest bar within
+        // a quarter of the width, 12 pixels in from the bottom left.
+        let ink = Rgb([20, 20, 20]);
+        let y = 300 - 12;
+        assert!((12..=132).all(|x| *img.get_pixel(x, y) == ink));
+        assert_ne!(*img.get_pixel(140, y), ink);
     }
 }
