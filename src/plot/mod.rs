@@ -37,17 +37,10 @@ fn metres(r: f64) -> String {
 fn label_centred(img: &mut RgbImage, (x, y): (f32, f32), text: &str, colour: Rgb<u8>) {
     let (w, h) = (text_width(text, LABEL_SCALE), text_height(LABEL_SCALE));
     let (x0, y0) = (x as i32 - w as i32 / 2, y as i32 - h as i32 / 2);
-    for (dx, dy) in [
-        (-1, -1),
-        (0, -1),
-        (1, -1),
-        (-1, 0),
-        (1, 0),
-        (-1, 1),
-        (0, 1),
-        (1, 1),
-    ] {
-        draw_text(img, x0 + dx, y0 + dy, text, BACKGROUND, LABEL_SCALE);
+    for dy in -1..=1 {
+        for dx in -1..=1 {
+            draw_text(img, x0 + dx, y0 + dy, text, BACKGROUND, LABEL_SCALE);
+        }
     }
     draw_text(img, x0, y0, text, colour, LABEL_SCALE);
 }
