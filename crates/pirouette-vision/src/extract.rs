@@ -202,6 +202,21 @@ struct BoundaryPoint {
 /// Rows of the seed at the bottom of each column.
 const SEED_ROWS: u32 = 6;
 
+/// How far a column's seed is compared with its neighbours', columns: past
+/// a speck of lint six pixels wide widened by the three-pixel smoothing.
+const SEED_NEIGHBOUR: usize = 8;
+
+/// Where a column's scan starts.
+#[derive(Debug, Clone, Copy)]
+enum Seed {
+    /// No floor in the column.
+    NoFloor,
+    /// The column's floor ends within its seed rows.
+    Clear { top_row: u32 },
+    /// The floor to follow up from the row above the seed.
+    Track(FloorTrack),
+}
+
 /// Rows each side of a boundary used to measure floor and obstacle levels.
 const LEVEL_OFFSET: u32 = 3;
 
@@ -458,20 +473,11 @@ impl RopExtractor {
             brightness_step: self.config.min_brightness_step,
             chroma_step: self.config.min_chroma_step,
         };
-        // Seed each column from its own bottom rows.
-        for (u, (slot, &top)) in out.iter_mut().zip(&self.top_floor).enumerate() {
-            if top >= n {
-                continue;
-            }
-            let seed_rows = SEED_ROWS.min(n - top);
-            let mut seed = [[0f32; 3]; SEED_ROWS as usize];
-            for (s, v) in seed.iter_mut().zip((n - seed_rows..n).rev()) {
-                *s = smoothed(px, self.width, u as u32, v);
-            }
-            if seed_rows == n - top {
-                *slot = ColumnBoundary::Clear { top_row: top };
-            } else {
-                lanes.start(u, FloorTrack::seed(&seed[..seed_rows as usize]));
+        for (u, (slot, seed)) in out.iter_mut().zip(self.seeds(px, &classifier)).enumerate() {
+            match seed {
+                Seed::NoFloor => {}
+                Seed::Clear { top_row } => *slot = ColumnBoundary::Clear { top_row },
+                Seed::Track(track) => lanes.start(u, track),
             }
         }
         // Every scanned column has more floor than its seed, so all start
@@ -589,6 +595,75 @@ impl RopExtractor {
             }
             v -= 1;
         }
+    }
+
+    /// Each column's start: a line through its own bottom rows, unless that
+    /// seed is not floor against its neighbours' on both sides: then a
+    /// speck of lint or a reflection lies in its seed rows, and the column
+    /// starts from their mean instead. The neighbours are the seeds
+    /// [`SEED_NEIGHBOUR`] columns either side; near the image's edge the
+    /// missing side is the line through the two inward ones (that far and
+    /// twice as far), so that the dark corners of vignetting pass. A clean
+    /// column next to a speck still agrees with its other side. Something
+    /// at the bottom that wide is then followed as an obstacle from the row
+    /// above the seed, where before it was the floor.
+    fn seeds(&self, px: &[u8], classifier: &Classifier) -> Vec<Seed> {
+        let n = self.height;
+        let own: Vec<Seed> = self
+            .top_floor
+            .iter()
+            .enumerate()
+            .map(|(u, &top)| {
+                if top >= n {
+                    return Seed::NoFloor;
+                }
+                let seed_rows = SEED_ROWS.min(n - top);
+                if seed_rows == n - top {
+                    return Seed::Clear { top_row: top };
+                }
+                let mut rows = [[0f32; 3]; SEED_ROWS as usize];
+                for (s, v) in rows.iter_mut().zip((n - seed_rows..n).rev()) {
+                    *s = smoothed(px, self.width, u as u32, v);
+                }
+                Seed::Track(FloorTrack::seed(&rows))
+            })
+            .collect();
+        let track = |j: Option<usize>| match j.and_then(|j| own.get(j)) {
+            Some(Seed::Track(t)) => Some(*t),
+            _ => None,
+        };
+        // `a + f·(b − a)` channel by channel, for level and trend.
+        let line = |a: FloorTrack, b: FloorTrack, f: f32| FloorTrack {
+            level: std::array::from_fn(|c| a.level[c] + f * (b.level[c] - a.level[c])),
+            trend: std::array::from_fn(|c| a.trend[c] + f * (b.trend[c] - a.trend[c])),
+        };
+        let k = SEED_NEIGHBOUR;
+        (0..own.len())
+            .map(|u| {
+                let Seed::Track(t) = own[u] else {
+                    return own[u];
+                };
+                let (near_l, near_r) = (track(u.checked_sub(k)), track(Some(u + k)));
+                let far = |j: Option<usize>, near: FloorTrack| track(j).map(|f| line(near, f, -1.0));
+                let sides = match (near_l, near_r) {
+                    (Some(l), Some(r)) => [l, r],
+                    (None, Some(r)) => match far(Some(u + 2 * k), r) {
+                        Some(e) => [e, r],
+                        None => return own[u],
+                    },
+                    (Some(l), None) => match far(u.checked_sub(2 * k), l) {
+                        Some(e) => [l, e],
+                        None => return own[u],
+                    },
+                    (None, None) => return own[u],
+                };
+                if sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) {
+                    own[u]
+                } else {
+                    Seed::Track(line(sides[0], sides[1], 0.5))
+                }
+            })
+            .collect()
     }
 
     /// Whether a candidate whose run has been scanned, `off` of its rows
@@ -997,15 +1072,16 @@ mod tests {
         }
         let pix = |v: u32| smoothed(px, m, u, v);
         let seed_rows = SEED_ROWS.min(n - top);
-        let seed: Vec<[f32; 3]> = (n - seed_rows..n).rev().map(pix).collect();
-        if seed_rows == n - top {
-            return ColumnBoundary::Clear { top_row: top };
-        }
-        let FloorTrack { level, trend } = FloorTrack::seed(&seed);
         let classifier = Classifier {
             noise: ex.config.noise_sigmas * sigma,
             brightness_step: ex.config.min_brightness_step,
             chroma_step: ex.config.min_chroma_step,
+        };
+        // The seeds are the scan's (tested on their own below).
+        let FloorTrack { level, trend } = match ex.seeds(px, &classifier)[u as usize] {
+            Seed::NoFloor => return ColumnBoundary::NoFloor,
+            Seed::Clear { top_row } => return ColumnBoundary::Clear { top_row },
+            Seed::Track(t) => t,
         };
         let (rate, trend_rate) = (ex.config.adapt_rate, ex.config.trend_rate);
         let edge = classifier.scaled(ex.config.edge_fraction);
@@ -1419,6 +1495,30 @@ mod tests {
         );
         let rop = ex.rop(&img).unwrap();
         assert!((0..rop.len()).all(|i| rop.reliable(i).is_none()));
+    }
+
+    #[test]
+    fn specks_in_the_seed_rows_are_floor() {
+        // The floor of `specks_and_gradients_are_floor`, with bright specks
+        // 3 to 6 pixels wide in the bottom rows, where each column seeds
+        // its floor, one at the image's edge.
+        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
+            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
+            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+        });
+        for (cu, cv, side) in [(60u32, 235u32, 4u32), (150, 234, 6), (230, 236, 3), (316, 235, 4)] {
+            for du in 0..side {
+                for dv in 0..side.min(240 - cv) {
+                    img.put_pixel(cu + du, cv + dv, image::Rgb([240, 240, 240]));
+                }
+            }
+        }
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        let b = ex.boundaries(&img).unwrap();
+        let found: Vec<usize> = (0..b.len())
+            .filter(|&u| !matches!(b[u], ColumnBoundary::Clear { .. }))
+            .collect();
+        assert!(found.is_empty(), "obstacles in columns {found:?}");
     }
 
     #[test]
