@@ -604,9 +604,10 @@ impl RopExtractor {
     /// [`SEED_NEIGHBOUR`] columns either side; near the image's edge the
     /// missing side is the line through the two inward ones (that far and
     /// twice as far), so that the dark corners of vignetting pass. A clean
-    /// column next to a speck still agrees with its other side. Something
-    /// at the bottom that wide is then followed as an obstacle from the row
-    /// above the seed, where before it was the floor.
+    /// column next to a speck still agrees with its other side. A real
+    /// obstacle at the bottom narrower than twice `SEED_NEIGHBOUR` columns
+    /// is then followed as one from the row above the seed, where before
+    /// its colour was taken for the floor's.
     fn seeds(&self, px: &[u8], classifier: &Classifier) -> Vec<Seed> {
         let n = self.height;
         let own: Vec<Seed> = self
