@@ -468,11 +468,7 @@ impl RopExtractor {
         let (m, n) = (self.width as usize, self.height);
         let mut out = vec![ColumnBoundary::NoFloor; m];
         let mut lanes = Lanes::new(m);
-        let classifier = Classifier {
-            noise: self.config.noise_sigmas * sigma,
-            brightness_step: self.config.min_brightness_step,
-            chroma_step: self.config.min_chroma_step,
-        };
+        let classifier = self.classifier(sigma);
         for (u, (slot, seed)) in out.iter_mut().zip(self.seeds(px, &classifier)).enumerate() {
             match seed {
                 Seed::NoFloor => {}
@@ -594,6 +590,16 @@ impl RopExtractor {
                 _ => return out,
             }
             v -= 1;
+        }
+    }
+
+    /// The floor test for an image whose noise (of a three-pixel average)
+    /// is `sigma`.
+    fn classifier(&self, sigma: f32) -> Classifier {
+        Classifier {
+            noise: self.config.noise_sigmas * sigma,
+            brightness_step: self.config.min_brightness_step,
+            chroma_step: self.config.min_chroma_step,
         }
     }
 
@@ -1065,7 +1071,7 @@ mod tests {
     /// every candidate decided on the spot by following the floor over its
     /// run (the plain form of what the lock-step scan does with deferred
     /// candidates).
-    fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32) -> ColumnBoundary {
+    fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[Seed]) -> ColumnBoundary {
         let (m, n) = (ex.width, ex.height);
         let top = ex.top_floor[u as usize];
         if top >= n {
@@ -1073,13 +1079,9 @@ mod tests {
         }
         let pix = |v: u32| smoothed(px, m, u, v);
         let seed_rows = SEED_ROWS.min(n - top);
-        let classifier = Classifier {
-            noise: ex.config.noise_sigmas * sigma,
-            brightness_step: ex.config.min_brightness_step,
-            chroma_step: ex.config.min_chroma_step,
-        };
+        let classifier = ex.classifier(sigma);
         // The seeds are the scan's (tested on their own below).
-        let FloorTrack { level, trend } = match ex.seeds(px, &classifier)[u as usize] {
+        let FloorTrack { level, trend } = match seeds[u as usize] {
             Seed::NoFloor => return ColumnBoundary::NoFloor,
             Seed::Clear { top_row } => return ColumnBoundary::Clear { top_row },
             Seed::Track(t) => t,
@@ -1212,10 +1214,11 @@ mod tests {
                 let without = plain.boundaries(&img).unwrap();
                 for ex in [&plain, &textured] {
                     let lock_step = ex.boundaries(&img).unwrap();
+                    let seeds = ex.seeds(px, &ex.classifier(sigma));
                     for (u, found) in lock_step.iter().enumerate() {
                         assert_eq!(
                             *found,
-                            column_by_column(ex, px, u as u32, sigma),
+                            column_by_column(ex, px, u as u32, sigma, &seeds),
                             "width {width} column {u}, texture ratio {}",
                             ex.config.texture_ratio
                         );
