@@ -505,7 +505,10 @@ fn place_sweep(
 /// Places every sweep again against the map of all the others, which
 /// corrects the first sweeps with what later ones saw, and anchors each
 /// frame's heading on the map of everything but itself (for a single
-/// pirouette, its sweep's other frames).
+/// pirouette, its sweep's other frames). The others are where the pass
+/// found them (a Jacobi step, not Gauss-Seidel): a sweep placed early in
+/// the pass does not drag the ones after it, and the result does not
+/// depend on the sweeps' order.
 fn refine_pass(
     placed: &mut [Placed],
     sweeps: &[DatasetSweep],
@@ -513,10 +516,13 @@ fn refine_pass(
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<()> {
+    // Every sweep is placed against where the others were at the pass's
+    // start, so that the pass does not depend on the sweeps' order.
+    let start: Vec<Placed> = placed.to_vec();
     for (s, sweep) in sweeps.iter().enumerate() {
         let others: Vec<(usize, Pose2)> = sweeps
             .iter()
-            .zip(placed.iter())
+            .zip(start.iter())
             .enumerate()
             .filter(|&(o, _)| o != s)
             .flat_map(|(_, (other, p))| {
@@ -560,7 +566,8 @@ fn refine_pass(
 /// registrations, each frame turned about the robot's pivot (the sweep
 /// settings' [`pirouette_profile::matching::MatchConfig::pivot_m`], which
 /// the turns measured). Then every sweep is placed
-/// again, twice, against the map of all the others, which corrects the
+/// again, twice, against the map of all the others as the pass found them
+/// (a Jacobi step), which corrects the
 /// first sweeps with what later ones saw, and each frame's heading is
 /// anchored on the map of everything but itself (for a single pirouette,
 /// its sweep's other frames). One sweep at a time cannot turn a group of
