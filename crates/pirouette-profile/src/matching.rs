@@ -232,16 +232,16 @@ struct Cell {
 /// The matching signal as contiguous arrays, for the inner loop: an absent
 /// value is NaN, which every comparison of the loop treats as false, so
 /// that the presence of a bin, an obstacle or a colour is a mask computed
-/// from the values themselves and the loop vectorises.
+/// from the values themselves and the loop vectorises. The four arrays
+/// share one allocation.
 struct Signals {
-    /// Inverse range (0: nothing in sight); NaN where the bin was not seen.
-    inv: Vec<f32>,
-    /// The largest inverse range each bin allows (see [`Cell`]); NaN where
-    /// the bin was not seen.
-    inv_hi: Vec<f32>,
-    /// Chromaticity shares; NaN where the bin has no colour.
-    chroma_r: Vec<f32>,
-    chroma_g: Vec<f32>,
+    /// Bins per array.
+    n: usize,
+    /// Inverse range (0: nothing in sight; NaN where the bin was not seen),
+    /// then the largest inverse range each bin allows (see [`Cell`]; NaN
+    /// where the bin was not seen), then the two chromaticity shares (NaN
+    /// where the bin has no colour), `n` each.
+    data: Vec<f32>,
 }
 
 impl Signals {
@@ -249,12 +249,10 @@ impl Signals {
     /// absent.
     fn new(cells: &[Cell], range: std::ops::Range<i64>) -> Self {
         let n = (range.end - range.start).max(0) as usize;
-        let mut s = Signals {
-            inv: vec![f32::NAN; n],
-            inv_hi: vec![f32::NAN; n],
-            chroma_r: vec![f32::NAN; n],
-            chroma_g: vec![f32::NAN; n],
-        };
+        let mut data = vec![f32::NAN; 4 * n];
+        let (inv, rest) = data.split_at_mut(n);
+        let (inv_hi, rest) = rest.split_at_mut(n);
+        let (chroma_r, chroma_g) = rest.split_at_mut(n);
         for (t, i) in range.enumerate() {
             let Some(c) = usize::try_from(i).ok().and_then(|i| cells.get(i)) else {
                 continue;
@@ -262,14 +260,30 @@ impl Signals {
             if c.inv.is_nan() {
                 continue;
             }
-            s.inv[t] = c.inv;
-            s.inv_hi[t] = c.inv_hi;
+            inv[t] = c.inv;
+            inv_hi[t] = c.inv_hi;
             if let Some([r, g]) = c.chroma {
-                s.chroma_r[t] = r;
-                s.chroma_g[t] = g;
+                chroma_r[t] = r;
+                chroma_g[t] = g;
             }
         }
-        s
+        Signals { n, data }
+    }
+
+    fn inv(&self) -> &[f32] {
+        &self.data[..self.n]
+    }
+
+    fn inv_hi(&self) -> &[f32] {
+        &self.data[self.n..2 * self.n]
+    }
+
+    fn chroma_r(&self) -> &[f32] {
+        &self.data[2 * self.n..3 * self.n]
+    }
+
+    fn chroma_g(&self) -> &[f32] {
+        &self.data[3 * self.n..]
     }
 }
 
@@ -310,6 +324,8 @@ struct CostCurve {
     /// Pairs that can disagree (see [`informative`]): pairs that both see
     /// nothing agree trivially and would favour larger overlaps.
     informative: Vec<usize>,
+    /// Whether any shift has an informative pair.
+    any_informative: bool,
     colour_pairs: Vec<usize>,
     /// The colour term's sum per shift (it does not depend on the range
     /// noise).
@@ -328,21 +344,14 @@ impl CostCurve {
     /// is no evidence for it: where one profile saw open floor only near,
     /// a shift can put every obstacle of the other beyond that floor.
     fn comparable(&self, j: usize, min_overlap: usize) -> bool {
-        self.overlap[j] >= min_overlap
-            && (self.informative[j] > 0 || self.informative.iter().all(|&n| n == 0))
+        self.overlap[j] >= min_overlap && (self.informative[j] > 0 || !self.any_informative)
     }
 
     /// The same curve at another range noise, from the informative pairs'
-    /// gaps that [`cost_curve`] kept (`len` per shift); the sums run in the
+    /// gaps that [`cost_curve`] kept; the sums run in the
     /// same lanes and order, so the result is the one a new pass would give.
     /// Not for the DCT measure, whose range term is not a sum over pairs.
-    fn rescaled(
-        mut self,
-        gaps: &[f32],
-        len: usize,
-        inverse_range_sigma: f32,
-        config: &MatchConfig,
-    ) -> CostCurve {
+    fn rescaled(mut self, gaps: &[f32], inverse_range_sigma: f32, config: &MatchConfig) -> CostCurve {
         debug_assert!(
             config.measure != Measure::Dct,
             "the DCT term is no sum over pairs"
@@ -350,9 +359,9 @@ impl CostCurve {
         let inv_s = 1.0 / inverse_range_sigma;
         let compared = &self.compared;
         let range_costs = match config.measure {
-            Measure::Absolute => range_sums(gaps, len, compared, inv_s, |e: f32| e.abs()),
-            Measure::Squared | Measure::Dct => range_sums(gaps, len, compared, inv_s, |e: f32| e * e),
-            Measure::Robust => range_sums(gaps, len, compared, inv_s, |e: f32| (e * e).min(9.0)),
+            Measure::Absolute => range_sums(gaps, compared, inv_s, |e: f32| e.abs()),
+            Measure::Squared | Measure::Dct => range_sums(gaps, compared, inv_s, |e: f32| e * e),
+            Measure::Robust => range_sums(gaps, compared, inv_s, |e: f32| (e * e).min(9.0)),
         };
         for (j, cost) in self.cost.iter_mut().enumerate() {
             *cost = if self.overlap[j] == 0 {
@@ -433,7 +442,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     } else if config.measure == Measure::Dct {
         cost_curve(&sa, &sb, k_lo, k_hi, sigma, config, &mut gaps)
     } else {
-        nominal.rescaled(&gaps, sa.inv.len(), sigma, config)
+        nominal.rescaled(&gaps, sigma, config)
     };
     let Some(best) = best_of(&curve) else {
         return fallback(Evidence::NoOverlap, 0.0, 0, None);
@@ -568,21 +577,25 @@ fn refine_with_shift(
         /// The bearing's derivatives in the shift, `(-sin, cos) / range`.
         d_bearing: [f64; 2],
     }
-    let points: Vec<Point> = (0..after.len())
-        .filter(|&i| after.range_m[i].is_finite())
-        .map(|i| {
-            let bearing = after.bin_centre_rad(i) + theta0;
-            let (sin, cos) = bearing.sin_cos();
-            let range = after.range_m[i] as f64;
-            Point {
-                bearing,
+    // The bins' directions by rotating the first one bin by bin (one
+    // `sin_cos` for the first bearing, one for the bin width; the rounding
+    // error grows by about an ulp a bin).
+    let mut points = Vec::with_capacity(after.len());
+    let (mut sin, mut cos) = (after.bin_centre_rad(0) + theta0).sin_cos();
+    let (sin_w, cos_w) = after.bin_width_rad.sin_cos();
+    for i in 0..after.len() {
+        let range = after.range_m[i] as f64;
+        if range.is_finite() {
+            points.push(Point {
+                bearing: after.bin_centre_rad(i) + theta0,
                 cos,
                 sin,
                 range,
                 d_bearing: [-sin / range, cos / range],
-            }
-        })
-        .collect();
+            });
+        }
+        (sin, cos) = (sin * cos_w + cos * sin_w, cos * cos_w - sin * sin_w);
+    }
     /// A bin of `before`: the interval of inverse ranges it allows (one
     /// value where it sees an obstacle), `None` where it was not seen.
     #[derive(Clone, Copy)]
@@ -792,15 +805,12 @@ fn noise_cost_sd(measure: Measure) -> f64 {
 /// inverse-range residuals over the informative pairs at `shift`, each
 /// residual being the difference of two bins (so divided by √2).
 fn residual_sigma(a: &[Cell], b: &[Cell], shift: i64) -> Option<f32> {
-    let mut r: Vec<f32> = a
-        .iter()
-        .enumerate()
-        .filter_map(|(i, ca)| {
-            let j = i as i64 + shift;
-            let cb = *b.get(usize::try_from(j).ok()?)?;
-            (!ca.inv.is_nan() && !cb.inv.is_nan() && informative(ca, &cb)).then(|| gap(ca, &cb))
-        })
-        .collect();
+    let mut r = Vec::with_capacity(a.len());
+    r.extend(a.iter().enumerate().filter_map(|(i, ca)| {
+        let j = i as i64 + shift;
+        let cb = *b.get(usize::try_from(j).ok()?)?;
+        (!ca.inv.is_nan() && !cb.inv.is_nan() && informative(ca, &cb)).then(|| gap(ca, &cb))
+    }));
     if r.len() < 5 {
         return None;
     }
@@ -828,6 +838,7 @@ fn cost_curve(
         cost: vec![f64::INFINITY; n],
         overlap: vec![0; n],
         informative: vec![0; n],
+        any_informative: false,
         colour_pairs: vec![0; n],
         colour_cost: vec![0.0; n],
         compared: vec![0..0; n],
@@ -839,37 +850,43 @@ fn cost_curve(
         let last = inv.iter().rposition(|x| !x.is_nan()).map_or(first, |l| l + 1);
         first..last
     };
-    let (seen_a, seen_b) = (seen(&sa.inv), seen(&sb.inv));
+    let (seen_a, seen_b) = (seen(sa.inv()), seen(sb.inv()));
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
-    let len = sa.inv.len();
-    gaps.clear();
-    gaps.resize(n * len, 0.0);
-    let mut xa = Vec::new();
-    let mut xb = Vec::new();
-    for j in 0..n {
+    for (j, compared) in curve.compared.iter_mut().enumerate() {
         // After's bin i meets before's sb[i + j]: both seen only within
         // `lo..hi`, widened to whole blocks so that each bin keeps its lane.
         let lo = seen_a.start.max(seen_b.start.saturating_sub(j));
         let hi = seen_a.end.min(seen_b.end.saturating_sub(j));
-        if lo >= hi {
+        if lo < hi {
+            *compared = lo / LANES * LANES..hi.div_ceil(LANES) * LANES;
+        }
+    }
+    // The gaps of each shift's compared blocks, shift after shift.
+    gaps.clear();
+    gaps.resize(curve.compared.iter().map(|c| c.len()).sum(), 0.0);
+    let mut stored = 0;
+    let mut xa = Vec::new();
+    let mut xb = Vec::new();
+    for j in 0..n {
+        let blocks = curve.compared[j].clone();
+        if blocks.is_empty() {
             continue;
         }
-        let blocks = lo / LANES * LANES..hi.div_ceil(LANES) * LANES;
-        curve.compared[j] = blocks.clone();
+        let out = &mut gaps[stored..stored + blocks.len()];
+        stored += blocks.len();
         let b = j + blocks.start..j + blocks.end;
         let pair = Pair {
-            ia: &sa.inv[blocks.clone()],
-            ib: &sb.inv[b.clone()],
-            ha: &sa.inv_hi[blocks.clone()],
-            hb: &sb.inv_hi[b.clone()],
-            ra: &sa.chroma_r[blocks.clone()],
-            rb: &sb.chroma_r[b.clone()],
-            ga: &sa.chroma_g[blocks.clone()],
-            gb: &sb.chroma_g[b],
+            ia: &sa.inv()[blocks.clone()],
+            ib: &sb.inv()[b.clone()],
+            ha: &sa.inv_hi()[blocks.clone()],
+            hb: &sb.inv_hi()[b.clone()],
+            ra: &sa.chroma_r()[blocks.clone()],
+            rb: &sb.chroma_r()[b.clone()],
+            ga: &sa.chroma_g()[blocks.clone()],
+            gb: &sb.chroma_g()[b],
             inv_s,
             chroma_s,
         };
-        let out = &mut gaps[j * len + blocks.start..j * len + blocks.end];
         let sums = match config.measure {
             Measure::Absolute => pair.sums(|e: f32| e.abs(), out),
             Measure::Squared | Measure::Dct => pair.sums(|e: f32| e * e, out),
@@ -907,25 +924,29 @@ fn cost_curve(
             (range_cost + config.colour_weight as f64 * colour_cost as f64) / n_info as f64
         };
     }
+    curve.any_informative = curve.informative.iter().any(|&n| n > 0);
     curve
 }
 
-/// Per shift, the range term over `len` stored gaps (0 for pairs that are
-/// not informative, which cost nothing under every measure), summed in the
-/// lanes of [`Pair::sums`] over the blocks it `compared`.
+/// Per shift, the range term over the stored gaps of the blocks it
+/// `compared` (stored shift after shift; 0 for pairs that are not
+/// informative, which cost nothing under every measure), summed in the
+/// lanes of [`Pair::sums`].
 #[inline(always)]
 fn range_sums(
     gaps: &[f32],
-    len: usize,
     compared: &[std::ops::Range<usize>],
     inv_s: f32,
     rho: impl Fn(f32) -> f32,
 ) -> Vec<f32> {
-    gaps.chunks_exact(len)
-        .zip(compared)
-        .map(|(shift, blocks)| {
+    let mut rest = gaps;
+    compared
+        .iter()
+        .map(|blocks| {
+            let (shift, tail) = rest.split_at(blocks.len());
+            rest = tail;
             let mut acc = [0f32; LANES];
-            for block in shift[blocks.clone()].chunks_exact(LANES) {
+            for block in shift.chunks_exact(LANES) {
                 for l in 0..LANES {
                     acc[l] += rho(block[l] * inv_s);
                 }
@@ -1135,7 +1156,7 @@ mod tests {
         // The curve at another noise, from the kept gaps, is the one a new
         // pass over the profiles gives, to the last bit.
         let other = cost_curve(&sa, &sb, k_lo, k_hi, 0.05, &config, &mut Vec::new());
-        let rescaled = curve.clone().rescaled(&gaps, a_len as usize, 0.05, &config);
+        let rescaled = curve.clone().rescaled(&gaps, 0.05, &config);
         assert_eq!(rescaled.cost, other.cost);
         assert_eq!(rescaled.informative, other.informative);
         let rho = |e: f64| (e * e).min(9.0);
