@@ -294,10 +294,11 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
     show("map", &r.map)?;
     show("map aligned", &r.map_aligned)?;
     outln!(
-        "{:<12} turns the map by {:+.2}° and moves its origin {:.2} cm",
+        "{:<12} turns the map by {:+.2}° and moves its origin {:.2} cm; the trajectory's best-fit scale is {:.4}",
         "",
         r.alignment.heading_deg,
-        r.alignment.shift_m * 100.0
+        r.alignment.shift_m * 100.0,
+        r.alignment.scale
     )?;
     show("true poses", &r.true_pose_map)?;
     outln!(

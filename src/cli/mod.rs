@@ -81,8 +81,8 @@ enum EvalCommand {
     /// occupied cells within 2 cells of the true obstacle outlines (recall
     /// over the outline visible from the true poses; in the map frame and
     /// after the trajectory's best-fit alignment, with how far that
-    /// alignment turns and moves the map), beside those of a map built
-    /// from the true poses.
+    /// alignment turns and moves the map and the scale a best-fit
+    /// similarity finds), beside those of a map built from the true poses.
     Map(map::EvalMapArgs),
 }
 

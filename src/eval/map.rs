@@ -61,6 +61,11 @@ pub struct Alignment {
     pub heading_deg: f64,
     /// Where it moves the map frame's origin, metres.
     pub shift_m: f64,
+    /// The scale of the best-fit similarity of the trajectory onto the
+    /// truth ([`similarity_scale`]): above 1 where the map came out too
+    /// small, below 1 where too large. The profiles' ranges are metric, so
+    /// it is an error of mapping, not of units.
+    pub scale: f64,
 }
 
 /// The point the robot turns about, in its own frame (x forward, y left),
@@ -229,6 +234,7 @@ pub fn evaluate_map_dir(
         alignment: Alignment {
             heading_deg: align.theta.to_degrees(),
             shift_m: align.translation().norm(),
+            scale: similarity_scale(&est, &tru),
         },
         true_pose_map,
         tolerance_m,
@@ -285,6 +291,33 @@ pub fn align_rigid(a: &[Point2], b: &[Point2]) -> Pose2 {
     let rot = Pose2::new(0.0, 0.0, theta);
     let rca = rot.transform_point(ca);
     Pose2::new(cb.x - rca.x, cb.y - rca.y, theta)
+}
+
+/// The scale `s` of the similarity `b ≈ s·R·a + t` that fits paired points
+/// best in least squares (Umeyama's, in 2D): the length of the centred
+/// cross-covariance (its rotation taken out) over the spread of `a`. 1 when
+/// `a` has no spread.
+pub fn similarity_scale(a: &[Point2], b: &[Point2]) -> f64 {
+    assert_eq!(a.len(), b.len(), "paired points");
+    let n = a.len().max(1) as f64;
+    let centre = |v: &[Point2]| {
+        let s = v.iter().fold((0.0, 0.0), |s, p| (s.0 + p.x, s.1 + p.y));
+        (s.0 / n, s.1 / n)
+    };
+    let (ca, cb) = (centre(a), centre(b));
+    let (mut sin, mut cos, mut spread) = (0.0, 0.0, 0.0);
+    for (p, q) in a.iter().zip(b) {
+        let (ax, ay) = (p.x - ca.0, p.y - ca.1);
+        let (bx, by) = (q.x - cb.0, q.y - cb.1);
+        cos += ax * bx + ay * by;
+        sin += ax * by - ay * bx;
+        spread += ax * ax + ay * ay;
+    }
+    if spread > 0.0 {
+        sin.hypot(cos) / spread
+    } else {
+        1.0
+    }
 }
 
 /// Scores `estimated` against `truth` (paired, map frame).
@@ -463,6 +496,18 @@ mod tests {
         let tru: Vec<Pose2> = b.iter().map(|p| Pose2::new(p.x, p.y, 0.0)).collect();
         let s = trajectory_scores(&est, &tru);
         assert!(s.ate_aligned_m < 1e-12 && s.ate_anchored_m > 0.5);
+        // A rigid copy has scale 1; one scaled up by 1 % about any point,
+        // 1.01 (the truth is larger than the estimate by that much).
+        assert!((similarity_scale(&a, &b) - 1.0).abs() < 1e-12);
+        let grown: Vec<Point2> = b
+            .iter()
+            .map(|p| Point2::new(2.0 + 1.01 * (p.x - 2.0), -1.0 + 1.01 * (p.y + 1.0)))
+            .collect();
+        assert!((similarity_scale(&a, &grown) - 1.01).abs() < 1e-12);
+        assert_eq!(
+            similarity_scale(&[Point2::new(1.0, 1.0)], &[Point2::new(3.0, 0.0)]),
+            1.0
+        );
     }
 
     #[test]
