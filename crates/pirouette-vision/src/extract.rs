@@ -518,6 +518,7 @@ impl RopExtractor {
                         // This row is one of the column's rows not floor.
                         off_before: lanes.off_rows(u) - 1,
                         floor: lanes.predicted(u),
+                        trend: lanes.coasted(u).trend,
                         edge: false,
                     },
                 );
@@ -544,6 +545,7 @@ impl RopExtractor {
                         lo: v,
                         off_before: lanes.off_rows(u),
                         floor: lanes.predicted(u),
+                        trend: lanes.coasted(u).trend,
                         edge: true,
                     },
                 );
@@ -686,7 +688,7 @@ impl RopExtractor {
         classifier: &Classifier,
     ) -> Option<ColumnBoundary> {
         if c.edge {
-            return Some(self.refine(px, u, c.row, c.floor));
+            return Some(self.refine(px, u, c.row, c.floor, c.trend));
         }
         let span = c.row - c.lo + 1;
         // The column itself, not just its neighbours averaged into it, must
@@ -694,7 +696,7 @@ impl RopExtractor {
         // obstacle pixel is enough to trip the test.
         (off as f32 >= self.config.run_fraction * span as f32
             && self.column_confirms(px, u, c.row, &c.floor, classifier))
-        .then(|| self.refine(px, u, c.row, c.floor))
+        .then(|| self.refine(px, u, c.row, c.floor, c.trend))
     }
 
     /// Whether a sharp step at row `v` of column `u` (a floor pixel no
@@ -814,8 +816,12 @@ impl RopExtractor {
     /// Sub-pixel row and colour of a boundary first detected at row `v`:
     /// the share of obstacle in each row of a window around `v`, from the
     /// levels of floor below and obstacle above, locates the edge without
-    /// blurring it.
-    fn refine(&self, px: &[u8], u: u32, v: u32, floor_ref: [f32; 3]) -> ColumnBoundary {
+    /// blurring it. The floor's level is carried from the rows it is
+    /// measured in up to each row of the window along `trend`, the floor
+    /// track's change per row there: floor that darkens toward a wall's
+    /// base (or brightens toward the horizon) would otherwise count as a
+    /// share of the obstacle and put the edge low, the range short.
+    fn refine(&self, px: &[u8], u: u32, v: u32, floor_ref: [f32; 3], trend: [f32; 3]) -> ColumnBoundary {
         let (m, n) = (self.width, self.height);
         let pix = |w: u32| smoothed(px, m, u, w);
         let above = (1..=2).filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1));
@@ -836,13 +842,25 @@ impl RopExtractor {
             };
         }
         // Window rows v−2 ..= v+2; the obstacle is on top.
+        let level_row = v as f32 + LEVEL_OFFSET as f32 + 0.5;
         let mut floor_share = 0.0;
         let lo = v.saturating_sub(2);
         let hi = (v + 2).min(n - 1);
         for w in lo..=hi {
             let p = pix(w);
-            let a = ((p[0] - floor[0]) * diff[0] + (p[1] - floor[1]) * diff[1] + (p[2] - floor[2]) * diff[2])
-                / norm2;
+            let up = level_row - w as f32;
+            let f = [
+                floor[0] + trend[0] * up,
+                floor[1] + trend[1] * up,
+                floor[2] + trend[2] * up,
+            ];
+            let d = [obstacle[0] - f[0], obstacle[1] - f[1], obstacle[2] - f[2]];
+            let nd: f32 = d.iter().map(|x| x * x).sum();
+            let a = if nd < 1.0 {
+                0.5
+            } else {
+                ((p[0] - f[0]) * d[0] + (p[1] - f[1]) * d[1] + (p[2] - f[2]) * d[2]) / nd
+            };
             floor_share += 1.0 - a.clamp(0.0, 1.0);
         }
         let row = hi as f32 + 0.5 - floor_share;
@@ -1115,13 +1133,13 @@ mod tests {
                 if off as f32 >= ex.config.run_fraction * (v - lo + 1) as f32
                     && ex.column_confirms(px, u, v, &pred, &classifier)
                 {
-                    return ex.refine(px, u, v, pred);
+                    return ex.refine(px, u, v, pred, track.trend);
                 }
             } else if !close && close_below {
                 let mut coasted = track;
                 coasted.step(&p, false, rate, trend_rate);
                 if ex.edge_confirms(px, u, v, coasted, &edge) {
-                    return ex.refine(px, u, v, pred);
+                    return ex.refine(px, u, v, pred, track.trend);
                 }
             } else if close
                 && !steady
@@ -1129,7 +1147,7 @@ mod tests {
                 && ex.config.texture_ratio > 0.0
                 && ex.bright_edge_confirms(px, u, v, &both, grey_sigma)
             {
-                return ex.refine(px, u, v, pred);
+                return ex.refine(px, u, v, pred, track.trend);
             }
             track.step(&p, floor, rate, trend_rate);
             close_below = close;
@@ -1429,6 +1447,31 @@ mod tests {
         for edge in [60.0, 60.3, 60.5, 100.8] {
             let b = ex.boundaries(&wall_image(edge)).unwrap();
             for col in &b {
+                let ColumnBoundary::Obstacle { row, .. } = *col else {
+                    panic!("{col:?}")
+                };
+                assert!((row - edge).abs() < 0.05, "edge {edge}: found {row}");
+            }
+        }
+    }
+
+    /// A floor that darkens steadily toward the base of a darker wall (as
+    /// shading toward a wall does): the edge is still where the pixels put
+    /// it, not pulled down by the floor's own change across the window.
+    #[test]
+    fn sub_pixel_edge_holds_on_a_floor_that_darkens_toward_the_wall() {
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        for edge in [60.3, 100.8] {
+            let img = image::RgbImage::from_fn(320, 240, |_, v| {
+                let a = (edge - (v as f32 - 0.5)).clamp(0.0, 1.0);
+                // The floor's value at the pixel's centre: 0.8 a row darker
+                // toward the wall (its mean over the pixel, the ramp being
+                // linear).
+                let floor = 100.0 + 0.8 * (v as f32 - edge);
+                let val = a * 40.0 + (1.0 - a) * floor;
+                image::Rgb([val as u8; 3])
+            });
+            for col in &ex.boundaries(&img).unwrap() {
                 let ColumnBoundary::Obstacle { row, .. } = *col else {
                     panic!("{col:?}")
                 };

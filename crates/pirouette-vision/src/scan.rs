@@ -461,6 +461,8 @@ pub(crate) struct Candidate {
     pub off_before: u32,
     /// The floor colour predicted at the candidate's row.
     pub floor: [f32; 3],
+    /// The floor track's change per row up the column there.
+    pub trend: [f32; 3],
     /// A sharp step already found to be an obstacle's base (its run was
     /// followed when it was found); otherwise a pixel off the floor whose
     /// run the scan is following.
