@@ -827,7 +827,14 @@ impl RopExtractor {
         let above = (1..=2).filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1));
         let obstacle = mean_of(above.map(pix)).unwrap_or_else(|| pix(v.saturating_sub(1)));
         let below = (LEVEL_OFFSET..LEVEL_OFFSET + 2).map(|k| v + k).filter(|&w| w < n);
-        let floor = mean_of(below.map(pix)).unwrap_or(floor_ref);
+        let floor = mean_of(below.clone().map(pix)).unwrap_or(floor_ref);
+        // The row the floor's level stands for: the mean of the rows it was
+        // measured in, or the detected row itself, where the track's
+        // prediction stands in for them (at the image's bottom).
+        let level_row = match below.clone().count() {
+            0 => v as f32,
+            k => below.map(|w| w as f32).sum::<f32>() / k as f32,
+        };
         let diff = [
             obstacle[0] - floor[0],
             obstacle[1] - floor[1],
@@ -842,7 +849,6 @@ impl RopExtractor {
             };
         }
         // Window rows v−2 ..= v+2; the obstacle is on top.
-        let level_row = v as f32 + LEVEL_OFFSET as f32 + 0.5;
         let mut floor_share = 0.0;
         let lo = v.saturating_sub(2);
         let hi = (v + 2).min(n - 1);
