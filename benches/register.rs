@@ -44,10 +44,13 @@ fn vision() -> VisionConfig {
 fn benches(c: &mut Criterion) {
     let f = fixture();
     let ds = &f.ds;
-    let extractor = pipeline::extractor(ds, None, vision()).expect("extractor");
+    let pipeline::SweepProfiles {
+        extractor,
+        rops,
+        matched,
+    } = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
     let blind_m = extractor.table().blind_range().expect("floor");
-    let rops = pipeline::profiles(ds, &extractor, || {}).expect("profiles");
-    let (sweeps, sweep_config) = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+    let (sweeps, sweep_config) = pipeline::sweeps(ds, &rops, &matched, &SweepConfig::default());
     let truth = ds.truth_poses().expect("truth");
     let origin = truth[0].inverse();
     let truth: Vec<Pose2> = truth.iter().map(|t| origin * *t).collect();
@@ -125,13 +128,13 @@ fn benches(c: &mut Criterion) {
     group.throughput(Throughput::Elements(ds.manifest.frames.len() as u64));
     group.bench_function("images_to_map", |b| {
         b.iter(|| {
-            let rops = pipeline::profiles(ds, &extractor, || {}).expect("profiles");
-            let (sweeps, sweep) = pipeline::sweeps(ds, &rops, &SweepConfig::default());
+            let p = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
+            let (sweeps, sweep) = pipeline::sweeps(ds, &p.rops, &p.matched, &SweepConfig::default());
             let config = MapConfig {
                 sweep,
                 ..config.clone()
             };
-            build_map(&ds.manifest.frames, &rops, &sweeps, blind_m, &config, || {}).expect("map")
+            build_map(&ds.manifest.frames, &p.rops, &sweeps, blind_m, &config, || {}).expect("map")
         })
     });
     group.bench_function("build_map_only", |b| {

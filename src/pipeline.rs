@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
 use pirouette_io::{Dataset, Motion};
-use pirouette_profile::sweep::{assemble, pivot_from_turns, Sweep, SweepConfig};
+use pirouette_profile::sweep::{assemble, join, pivot_from_turns, Sweep, SweepConfig};
 use pirouette_profile::Rop;
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
@@ -19,17 +19,68 @@ pub fn extractor(ds: &Dataset, model: Option<ModelKind>, config: VisionConfig) -
 /// The profile of every frame, in capture order (frames in parallel).
 /// `progress` is called once per finished frame.
 pub fn profiles(ds: &Dataset, extractor: &RopExtractor, progress: impl Fn() + Sync) -> Result<Vec<Rop>> {
-    (0..ds.manifest.frames.len())
+    Ok(profiles_and_matched(ds, extractor, None, progress)?.0)
+}
+
+/// The profile of every frame as [`profiles`] gives it, and, where
+/// `matching` is given, the profile each frame's turn is verified on (see
+/// [`VisionConfig::for_matching`]), from the same image read once.
+pub fn profiles_and_matched(
+    ds: &Dataset,
+    extractor: &RopExtractor,
+    matching: Option<&RopExtractor>,
+    progress: impl Fn() + Sync,
+) -> Result<(Vec<Rop>, Option<Vec<Rop>>)> {
+    let pairs: Vec<(Rop, Option<Rop>)> = (0..ds.manifest.frames.len())
         .into_par_iter()
         .map(|i| {
             let img = ds.load_image(i)?;
-            let rop = extractor
-                .rop(&img)
-                .with_context(|| ds.image_path(i).display().to_string())?;
+            let name = || ds.image_path(i).display().to_string();
+            let rop = extractor.rop(&img).with_context(name)?;
+            let matched = matching.map(|m| m.rop(&img)).transpose().with_context(name)?;
             progress();
-            Ok(rop)
+            Ok((rop, matched))
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    let matched = matching
+        .is_some()
+        .then(|| pairs.iter().filter_map(|(_, m)| m.clone()).collect());
+    Ok((pairs.into_iter().map(|(r, _)| r).collect(), matched))
+}
+
+/// Every frame's profiles for sweeps and maps (see [`sweep_profiles`]).
+pub struct SweepProfiles {
+    /// The extractor of `rops` (camera tables, settings).
+    pub extractor: RopExtractor,
+    /// One profile per frame, as the settings give it: for the map.
+    pub rops: Vec<Rop>,
+    /// One profile per frame to verify turns on: the settings'
+    /// [`VisionConfig::for_matching`] (a copy of `rops` where that changes
+    /// nothing).
+    pub matched: Vec<Rop>,
+}
+
+/// Profiles every frame with `config` for the map and with its matching
+/// settings for the turns, each image read once; `progress` is called once
+/// per finished frame.
+pub fn sweep_profiles(
+    ds: &Dataset,
+    model: Option<ModelKind>,
+    config: VisionConfig,
+    progress: impl Fn() + Sync,
+) -> Result<SweepProfiles> {
+    let matching = config
+        .for_matching()
+        .map(|c| extractor(ds, model, c))
+        .transpose()?;
+    let extractor = extractor(ds, model, config)?;
+    let (rops, matched) = profiles_and_matched(ds, &extractor, matching.as_ref(), progress)?;
+    let matched = matched.unwrap_or_else(|| rops.clone());
+    Ok(SweepProfiles {
+        extractor,
+        rops,
+        matched,
+    })
 }
 
 /// One sweep of a dataset: its frames (indices into the manifest, in
@@ -51,9 +102,21 @@ pub struct DatasetSweep {
 /// about `config`'s pivot, then again about the one their verified turns'
 /// shifts give, until it moves less than a tenth of a millimetre (each
 /// round refines the turns from the shifts the last round's pivot
-/// predicts, and their robust fits keep the inliers near there). Returns
-/// the sweeps and the settings they were assembled with.
-pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> (Vec<DatasetSweep>, SweepConfig) {
+/// predicts, and their robust fits keep the inliers near there). The turns
+/// are verified on `matched` (one profile per frame, as `rops`: see
+/// [`profiles_and_matched`]; `rops` itself where there are no others), and
+/// each sweep's 360° profile is joined from `rops`. Returns the sweeps and
+/// the settings they were assembled with.
+///
+/// # Panics
+/// When `matched` and `rops` differ in length.
+pub fn sweeps(
+    ds: &Dataset,
+    rops: &[Rop],
+    matched: &[Rop],
+    config: &SweepConfig,
+) -> (Vec<DatasetSweep>, SweepConfig) {
+    assert_eq!(rops.len(), matched.len(), "one matched profile per frame");
     // Each sweep's frames, commands and profiles, gathered once for every
     // round.
     let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
@@ -69,7 +132,7 @@ pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> (Vec<DatasetS
         .map(|(_, frames)| {
             (
                 commanded_turns(ds, frames),
-                frames.iter().map(|&i| rops[i].clone()).collect(),
+                frames.iter().map(|&i| matched[i].clone()).collect(),
             )
         })
         .collect();
@@ -97,6 +160,10 @@ pub fn sweeps(ds: &Dataset, rops: &[Rop], config: &SweepConfig) -> (Vec<DatasetS
         if (pivot[0] - old[0]).hypot(pivot[1] - old[1]) < 1e-4 {
             break;
         }
+    }
+    for s in &mut sweeps {
+        let own: Vec<Rop> = s.frames.iter().map(|&i| rops[i].clone()).collect();
+        s.sweep.rop = join(&own, &s.sweep.heading_rad);
     }
     (sweeps, config)
 }

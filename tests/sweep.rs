@@ -5,6 +5,7 @@ use pirouette::eval::{tally_sweeps, SweepScores};
 use pirouette::io::Dataset;
 use pirouette::pipeline;
 use pirouette::profile::sweep::SweepConfig;
+use pirouette::profile::Rop;
 use pirouette::vision::VisionConfig;
 use std::path::Path;
 
@@ -14,9 +15,8 @@ fn scores(root: &Path) -> SweepScores {
         bin_width_rad: 0.25f64.to_radians(),
         ..VisionConfig::default()
     };
-    let ex = pipeline::extractor(&ds, None, config).unwrap();
-    let rops = pipeline::profiles(&ds, &ex, || {}).unwrap();
-    let (sweeps, _) = pipeline::sweeps(&ds, &rops, &SweepConfig::default());
+    let p = pipeline::sweep_profiles(&ds, None, config, || {}).unwrap();
+    let (sweeps, _) = pipeline::sweeps(&ds, &p.rops, &p.matched, &SweepConfig::default());
     let tally = tally_sweeps(&ds, &sweeps).expect("true poses");
     tally.scores()
 }
@@ -89,4 +89,50 @@ fn sweep_json_follows_the_contract() {
         assert!(fallback || (est - cmd).abs() <= 15.0, "{l}");
     }
     assert!(dir.path().join("sweep-00.png").is_file());
+}
+
+/// Turns are verified on the profiles without the texture cue, and each
+/// sweep's 360° profile is joined from the cue's: the same turns as
+/// assembling the matching profiles alone, a different joined profile
+/// where the cue found walls.
+#[test]
+fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
+    let ds = Dataset::open(&rendered("room-multi", 17)).unwrap();
+    let config = VisionConfig {
+        bin_width_rad: 0.25f64.to_radians(),
+        ..VisionConfig::default()
+    };
+    let p = pipeline::sweep_profiles(&ds, None, config.clone(), || {}).unwrap();
+    let plain = pipeline::extractor(&ds, None, config.for_matching().unwrap()).unwrap();
+    let again = pipeline::profiles(&ds, &plain, || {}).unwrap();
+    assert!(p.matched.iter().zip(&again).all(|(a, b)| same(a, b)));
+    assert!(
+        p.rops.iter().zip(&p.matched).any(|(a, b)| !same(a, b)),
+        "the cue found nothing on this render"
+    );
+    let (both, _) = pipeline::sweeps(&ds, &p.rops, &p.matched, &SweepConfig::default());
+    let (alone, _) = pipeline::sweeps(&ds, &p.matched, &p.matched, &SweepConfig::default());
+    let mut joined_differ = false;
+    for (b, a) in both.iter().zip(&alone) {
+        assert_eq!(b.sweep.turns, a.sweep.turns);
+        assert_eq!(b.sweep.heading_rad, a.sweep.heading_rad);
+        let own: Vec<_> = b.frames.iter().map(|&i| p.rops[i].clone()).collect();
+        assert!(same(
+            &b.sweep.rop,
+            &pirouette::profile::sweep::join(&own, &b.sweep.heading_rad)
+        ));
+        joined_differ |= !same(&b.sweep.rop, &a.sweep.rop);
+    }
+    assert!(joined_differ, "no sweep joined the cue's walls");
+}
+
+/// Two profiles bit for bit (unseen bins are NaN, which `==` never equals).
+fn same(a: &Rop, b: &Rop) -> bool {
+    let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    a.bearing_start_rad == b.bearing_start_rad
+        && a.bin_width_rad == b.bin_width_rad
+        && a.max_range_m == b.max_range_m
+        && bits(&a.range_m) == bits(&b.range_m)
+        && bits(&a.free_m) == bits(&b.free_m)
+        && a.colour == b.colour
 }

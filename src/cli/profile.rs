@@ -37,7 +37,8 @@ pub struct ProfileOptions {
     edge_fraction: f32,
     /// At a step of brightness alone within one image row, the most texture
     /// above it, as a share of the floor's below, that makes it an
-    /// obstacle's base (0 turns the texture cue off).
+    /// obstacle's base (0 turns the texture cue off). Profiles and maps
+    /// use it; turns are verified on profiles without it.
     #[arg(long, default_value_t = VisionConfig::default().texture_ratio)]
     texture_ratio: f32,
 }

@@ -60,11 +60,20 @@ impl SweepOptions {
 
     /// Profiles every frame and assembles the sweeps.
     pub fn run_all(&self, ds: &pirouette::io::Dataset) -> Result<SweepRun> {
-        let extractor = pipeline::extractor(ds, self.profile.model(), self.profile.config(self.bin_deg)?)?;
         let bar = super::progress(ds.manifest.frames.len(), "profile");
-        let rops = pipeline::profiles(ds, &extractor, || bar.inc(1))?;
+        let profiles = pipeline::sweep_profiles(
+            ds,
+            self.profile.model(),
+            self.profile.config(self.bin_deg)?,
+            || bar.inc(1),
+        )?;
         bar.finish_and_clear();
-        let (sweeps, config) = pipeline::sweeps(ds, &rops, &self.config()?);
+        let pipeline::SweepProfiles {
+            extractor,
+            rops,
+            matched,
+        } = profiles;
+        let (sweeps, config) = pipeline::sweeps(ds, &rops, &matched, &self.config()?);
         Ok(SweepRun {
             extractor,
             rops,

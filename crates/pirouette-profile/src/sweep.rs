@@ -311,8 +311,11 @@ fn wrap(a: f64) -> f64 {
 /// centimetre of it, on the circle a robot turning about a point off its
 /// centre runs round: a diagram, not a map);
 /// where several frames see a bin, the median range (and the colour of the
-/// sample nearest it).
-fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
+/// sample nearest it). [`assemble`] joins the profiles it matched; a
+/// caller that verified the turns on other profiles of the same frames
+/// (see `pirouette_vision::VisionConfig::for_matching`) joins its own with
+/// the sweep's headings.
+pub fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
     let Some(first) = rops.first() else {
         return Rop::empty(-PI, TAU, 0, 1.0);
     };

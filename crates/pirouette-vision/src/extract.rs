@@ -87,18 +87,18 @@ impl Default for VisionConfig {
     ///   the chromaticity step is trusted as material. The run above must
     ///   still stay that far off the floor, and the brightness tolerance
     ///   and the noise allowance are unchanged;
-    /// - `texture_ratio`: 0, off. Shading, seams and tonal patches change a
+    /// - `texture_ratio`: 0.6. Shading, seams and tonal patches change a
     ///   floor's brightness but leave its texture: the same grain lies on
     ///   both sides of the step. A smooth surface that meets a textured
     ///   floor (a painted wall in shade, as grey as the floor) has less
-    ///   texture above its base than the floor below. 0.6 (the texture
-    ///   windows hold about 30 independent samples a side, whose medians
-    ///   are known to about 14 %: 0.6 lies three standard errors of the
-    ///   ratio below 1) finds most such walls, but near the soft limit
-    ///   only in stretches, and the rotation matcher reads a wall seen in
-    ///   one view and missed in the next as a contradiction: until it
-    ///   weighs such bins by how surely they were seen, the cue is opt-in
-    ///   (measured in `BENCHMARKS.md`);
+    ///   texture above its base than the floor below. The texture windows
+    ///   hold about 30 independent samples a side, whose medians are known
+    ///   to about 14 %: 0.6 lies three standard errors of the ratio below
+    ///   one. It finds most such walls, but near the soft limit only in
+    ///   stretches: good evidence for a map, which fuses every sighting,
+    ///   but not for matching two views, where a wall seen in one and
+    ///   missed in the next reads as a contradiction. Turns are therefore
+    ///   verified on profiles without it ([`VisionConfig::for_matching`]);
     /// - `adapt_rate`: 0.25 per row (a memory of about four rows);
     /// - `trend_rate`: 0.1 per row: the brightness trend of the floor
     ///   (vignetting, light fall-off) changes slowly;
@@ -112,7 +112,7 @@ impl Default for VisionConfig {
             min_chroma_step: 0.05,
             noise_sigmas: 5.0,
             edge_fraction: 0.5,
-            texture_ratio: 0.0,
+            texture_ratio: 0.6,
             adapt_rate: 0.25,
             trend_rate: 0.1,
             run_fraction: 0.75,
@@ -122,6 +122,19 @@ impl Default for VisionConfig {
 }
 
 impl VisionConfig {
+    /// The settings of the profiles that verify turns: these with the
+    /// texture cue off, or `None` where it already is. Turn matching
+    /// compares two views bin by bin and needs a detector that sees the
+    /// same wall in both; the texture cue finds faint walls only in
+    /// stretches near the soft limit, so its walls come and go between
+    /// views. Every other cue is kept.
+    pub fn for_matching(&self) -> Option<Self> {
+        (self.texture_ratio > 0.0).then(|| Self {
+            texture_ratio: 0.0,
+            ..self.clone()
+        })
+    }
+
     /// Whether the settings can be used: every field within the range its
     /// doc gives.
     pub fn validate(&self) -> Result<(), VisionError> {
@@ -1182,14 +1195,13 @@ mod tests {
                 cx: (width as f64 - 1.0) / 2.0,
                 ..cam()
             };
-            let plain = RopExtractor::new(&c, 0.9, VisionConfig::default());
-            let textured = RopExtractor::new(
+            let textured = RopExtractor::new(&c, 0.9, VisionConfig::default());
+            let plain = RopExtractor::new(
                 &c,
                 0.9,
-                VisionConfig {
-                    texture_ratio: 0.6,
-                    ..VisionConfig::default()
-                },
+                VisionConfig::default()
+                    .for_matching()
+                    .expect("the cue is on by default"),
             );
             for _ in 0..4 {
                 // Obstacles: (first column, last column, base row, colour);
@@ -1445,6 +1457,28 @@ mod tests {
         // by chance a few columns of a seam still pass (11 of 320 here).
         let (seam, _) = scan(&image(true), 0.6);
         assert!(seam <= 16, "a step with grain on both sides: {seam} columns");
+    }
+
+    /// The profiles turns are verified on: every setting kept but the
+    /// texture cue, which is turned off; none where it is off already.
+    #[test]
+    fn matching_settings_drop_only_the_texture_cue() {
+        let config = VisionConfig {
+            bin_width_rad: 0.25f64.to_radians(),
+            min_brightness_step: 0.2,
+            ..VisionConfig::default()
+        };
+        assert!(config.texture_ratio > 0.0, "the cue is on by default");
+        let matching = config.for_matching().expect("the cue was on");
+        assert_eq!(
+            matching,
+            VisionConfig {
+                texture_ratio: 0.0,
+                ..config.clone()
+            }
+        );
+        assert!(matching.validate().is_ok());
+        assert_eq!(matching.for_matching(), None);
     }
 
     #[test]
