@@ -37,6 +37,15 @@ fn image_to_rop(c: &mut Criterion) {
                 b.iter(|| ex.rop(black_box(img)).expect("sizes match"))
             });
         }
+        // The profile turns are verified on (the texture cue off), which
+        // sweeps and maps compute beside the default one.
+        let matching = VisionConfig::default()
+            .for_matching()
+            .expect("the cue is on by default");
+        let ex = RopExtractor::new(&camera, scene.max_range, matching);
+        group.bench_function(format!("{name}/1deg-no-texture-cue"), |b| {
+            b.iter(|| ex.rop(black_box(img)).expect("sizes match"))
+        });
         // The boundary scan alone, beside the whole path.
         let ex = RopExtractor::new(&camera, scene.max_range, VisionConfig::default());
         group.bench_function(format!("{name}/boundaries-only"), |b| {
