@@ -55,8 +55,9 @@ pub struct SweepProfiles {
     /// One profile per frame, as the settings give it: for the map.
     pub rops: Vec<Rop>,
     /// One profile per frame to verify turns on: the settings'
-    /// [`VisionConfig::for_matching`] (a copy of `rops` where that changes
-    /// nothing).
+    /// [`VisionConfig::for_matching`], with the ranges of `rops` as the
+    /// intermittent cue's (`Rop::intermittent_m`); a copy of `rops` where
+    /// the matching settings are the same.
     pub matched: Vec<Rop>,
 }
 
@@ -75,7 +76,17 @@ pub fn sweep_profiles(
         .transpose()?;
     let extractor = extractor(ds, model, config)?;
     let (rops, matched) = profiles_and_matched(ds, &extractor, matching.as_ref(), progress)?;
-    let matched = matched.unwrap_or_else(|| rops.clone());
+    // The cue left out of the matched profiles is an intermittent one:
+    // its ranges go with them, compared only where both views have one.
+    let matched = match matched {
+        Some(mut matched) => {
+            for (m, r) in matched.iter_mut().zip(&rops) {
+                m.intermittent_m = r.range_m.clone();
+            }
+            matched
+        }
+        None => rops.clone(),
+    };
     Ok(SweepProfiles {
         extractor,
         rops,

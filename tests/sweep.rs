@@ -91,10 +91,11 @@ fn sweep_json_follows_the_contract() {
     assert!(dir.path().join("sweep-00.png").is_file());
 }
 
-/// Turns are verified on the profiles without the texture cue, and each
-/// sweep's 360° profile is joined from the cue's: the same turns as
-/// assembling the matching profiles alone, a different joined profile
-/// where the cue found walls.
+/// Turns are verified on the profiles without the texture cue, which
+/// carry the cue's ranges as an intermittent cue's, and each sweep's 360°
+/// profile is joined from the cue's profiles: the same turns as assembling
+/// the matching profiles alone, a different joined profile where the cue
+/// found walls.
 #[test]
 fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
     let ds = Dataset::open(&rendered("room-multi", 17)).unwrap();
@@ -106,6 +107,12 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
     let plain = pipeline::extractor(&ds, None, config.for_matching().unwrap()).unwrap();
     let again = pipeline::profiles(&ds, &plain, || {}).unwrap();
     assert!(p.matched.iter().zip(&again).all(|(a, b)| same(a, b)));
+    let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert!(p
+        .matched
+        .iter()
+        .zip(&p.rops)
+        .all(|(m, r)| bits(&m.intermittent_m) == bits(&r.range_m)));
     assert!(
         p.rops.iter().zip(&p.matched).any(|(a, b)| !same(a, b)),
         "the cue found nothing on this render"
