@@ -42,10 +42,11 @@ pub fn profiles_and_matched(
             Ok((rop, matched))
         })
         .collect::<Result<_>>()?;
+    let (rops, matched): (Vec<Rop>, Vec<Option<Rop>>) = pairs.into_iter().unzip();
     let matched = matching
         .is_some()
-        .then(|| pairs.iter().filter_map(|(_, m)| m.clone()).collect());
-    Ok((pairs.into_iter().map(|(r, _)| r).collect(), matched))
+        .then(|| matched.into_iter().flatten().collect());
+    Ok((rops, matched))
 }
 
 /// Every frame's profiles for sweeps and maps (see [`sweep_profiles`]).
@@ -115,7 +116,7 @@ pub struct DatasetSweep {
 /// round refines the turns from the shifts the last round's pivot
 /// predicts, and their robust fits keep the inliers near there). The turns
 /// are verified on `matched` (one profile per frame, as `rops`: see
-/// [`profiles_and_matched`]; `rops` itself where there are no others), and
+/// [`sweep_profiles`]; `rops` itself where there are no others), and
 /// each sweep's 360° profile is joined from `rops`. Returns the sweeps and
 /// the settings they were assembled with.
 ///

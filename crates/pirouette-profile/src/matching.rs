@@ -1111,10 +1111,11 @@ fn dct_distance(planner: &mut DctPlanner<f32>, xa: &mut [f32], xb: &mut [f32]) -
 }
 
 /// How much there is to align in the overlap at `shift`: every step of
-/// inverse range between neighbouring bins counts by how far it exceeds
-/// twice the noise (in standard deviations, at most 3), every colour
-/// appearing or vanishing counts 1; each profile counts half. One clear
-/// edge seen by both profiles scores 3.
+/// inverse range between neighbouring bins (as the pairs compare them:
+/// the intermittent cue's where both bins have it) counts by how far it
+/// exceeds twice the noise (in standard deviations, at most 3), every
+/// colour appearing or vanishing counts 1; each profile counts half. One
+/// clear edge seen by both profiles scores 3.
 fn structure(a: &[Cell], b: &[Cell], shift: i64, sigma: f64) -> f64 {
     let step = |x: f32, y: f32| ((((x - y) as f64).abs() - 2.0 * sigma) / sigma).clamp(0.0, 3.0);
     let mut total = 0.0;

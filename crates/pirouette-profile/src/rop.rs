@@ -82,12 +82,12 @@ pub struct Rop {
     /// [`Rop::free_reach`].
     #[serde(default)]
     pub free_m: Vec<f32>,
-    /// Ranges found by a cue that sees true obstacles but not in every
-    /// view (a camera's texture cue near the soft limit), per bin (finite
-    /// where it found one; empty: no such cue). Rotation matching compares
-    /// them where both profiles have one in a bin, and elsewhere
-    /// `range_m`: that such a cue found nothing is no evidence. Read it
-    /// with [`Rop::intermittent`].
+    /// The ranges per bin with one more cue, which finds true obstacles
+    /// but not in every view (a camera's texture cue near the soft limit):
+    /// finite where there is an obstacle; empty where there is no such
+    /// cue. Rotation matching compares them where both profiles have one
+    /// in a bin, and elsewhere `range_m`: that such a cue found nothing is
+    /// no evidence. Read it with [`Rop::intermittent`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub intermittent_m: Vec<f32>,
 }
