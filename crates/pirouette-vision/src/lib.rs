@@ -18,7 +18,11 @@
 //! which rejects flat specks (lint, reflections) by geometry. Where the
 //! colour changes within one row (an edge), a smaller change of
 //! chromaticity is enough ([`VisionConfig::edge_fraction`]): a wall close to
-//! the floor's colour still has a sharp base.
+//! the floor's colour still has a sharp base. Where brightness alone steps
+//! sharply and the floor's grain stops above the step, the step is a
+//! smooth wall's base ([`VisionConfig::texture_ratio`]); that cue finds
+//! faint walls only in stretches, so turns are matched on profiles without
+//! it ([`VisionConfig::for_matching`]).
 //!
 //! ```
 //! use pirouette_camera::PinholeModel;
