@@ -173,9 +173,13 @@ pub fn sweeps(
             break;
         }
     }
-    for s in &mut sweeps {
-        let own: Vec<Rop> = s.frames.iter().map(|&i| rops[i].clone()).collect();
-        s.sweep.rop = join(&own, &s.sweep.heading_rad);
+    // Assembly joined the matched profiles; where the map's differ, the
+    // 360° profile is theirs.
+    if !std::ptr::eq(rops, matched) {
+        for s in &mut sweeps {
+            let own: Vec<Rop> = s.frames.iter().map(|&i| rops[i].clone()).collect();
+            s.sweep.rop = join(&own, &s.sweep.heading_rad);
+        }
     }
     (sweeps, config)
 }
