@@ -374,8 +374,9 @@ const TURN_SHIFT_M: f64 = 0.002;
 
 /// Solves the headings of a sweep's frames (each turned about the robot's
 /// pivot) from the turns between them and what the map says of each frame
-/// alone: a chain of relative headings (verified links to a match's
-/// accuracy, fallback turns to a command's), anchored where a frame's own registration (a
+/// alone: a chain of relative headings as the sweep measured them
+/// (verified links to a match's accuracy, fallback turns to a command's),
+/// anchored where a frame's own registration (a
 /// turn about the pivot, searched within one command's error) pins its
 /// heading to better than half that. Every heading also keeps a weak pull
 /// (10°) to its current value, so a frame without anchors or links stays.
@@ -421,25 +422,59 @@ fn chain_headings<'f>(
             )
         }))
     };
-    let mut anchors: Vec<(usize, f64, f64)> = (0..n)
+    let anchors: Vec<(usize, f64, f64)> = (0..n)
         .into_par_iter()
         .map(anchor_of)
         .collect::<Result<Vec<_>>>()?
         .into_iter()
         .flatten()
         .collect();
-    let mut links: Vec<(usize, usize, f64, f64)> = sweep
-        .sweep
-        .links
+    let links = chain_links(&sweep.sweep.heading_rad, &sweep.sweep.links, sigma_ver, sigma_cmd);
+    if let Some(x) = solve_chain(&cur, &links, anchors) {
+        placed.heading_rad = x;
+    }
+    Ok(())
+}
+
+/// The links of a sweep's heading chain, `(i, j, heading j − heading i,
+/// σ)`: its verified links (`links`) to `sigma_ver`, and every frame no
+/// verified link reaches joined to the one before it by its fallback turn,
+/// to `sigma_cmd`. The differences are those of `measured`, the headings as
+/// the sweep measured them, never of a later solution: solved again and
+/// again from the last solution's differences, the links would give way a
+/// little to the anchors each time, and one wrong anchor would end up
+/// bending verified turns by degrees.
+fn chain_links(
+    measured: &[f64],
+    links: &[(usize, usize)],
+    sigma_ver: f64,
+    sigma_cmd: f64,
+) -> Vec<(usize, usize, f64, f64)> {
+    let mut out: Vec<(usize, usize, f64, f64)> = links
         .iter()
-        .map(|&(a, b)| (a, b, cur[b] - cur[a], sigma_ver))
+        .map(|&(a, b)| (a, b, measured[b] - measured[a], sigma_ver))
         .collect();
-    for k in 1..n {
-        if !sweep.sweep.links.iter().any(|&(_, b)| b == k) {
-            links.push((k - 1, k, cur[k] - cur[k - 1], sigma_cmd));
+    for k in 1..measured.len() {
+        if !links.iter().any(|&(_, b)| b == k) {
+            out.push((k - 1, k, measured[k] - measured[k - 1], sigma_cmd));
         }
     }
+    out
+}
+
+/// The headings that agree best with the chain's `links` (see
+/// [`chain_links`]) and the `anchors` (`(frame, heading, σ)`), each heading
+/// also pulled weakly ([`CHAIN_WEAK_RAD`]) to `cur`: linear least squares,
+/// solved again without the anchors more than three standard deviations
+/// from the solution. `None` when the system cannot be solved.
+fn solve_chain(
+    cur: &[f64],
+    links: &[(usize, usize, f64, f64)],
+    mut anchors: Vec<(usize, f64, f64)>,
+) -> Option<Vec<f64>> {
+    let n = cur.len();
     let weak = CHAIN_WEAK_RAD;
+    let mut solution = None;
     for _round in 0..2 {
         let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
         let mut b = nalgebra::DVector::<f64>::zeros(n);
@@ -447,7 +482,7 @@ fn chain_headings<'f>(
             a[(k, k)] += 1.0 / (weak * weak);
             b[k] += cur[k] / (weak * weak);
         }
-        for &(i, j, d, s) in &links {
+        for &(i, j, d, s) in links {
             let w = 1.0 / (s * s);
             a[(i, i)] += w;
             a[(j, j)] += w;
@@ -461,17 +496,16 @@ fn chain_headings<'f>(
             a[(k, k)] += w;
             b[k] += w * v;
         }
-        let Some(x) = a.clone().cholesky().map(|c| c.solve(&b)) else {
-            return Ok(());
-        };
+        let Some(chol) = a.cholesky() else { break };
+        let x = chol.solve(&b);
         let before = anchors.len();
         anchors.retain(|&(k, v, s)| (x[k] - v).abs() <= 3.0 * s);
-        placed.heading_rad = x.iter().copied().collect();
+        solution = Some(x.iter().copied().collect());
         if anchors.len() == before {
             break;
         }
     }
-    Ok(())
+    solution
 }
 
 /// Places one sweep against `field` by alternating two steps, twice:
@@ -858,6 +892,55 @@ mod tests {
             vec![vec![0, 1, 5], vec![2, 3, 4, 6], vec![7]]
         );
         assert_eq!(components(3, &[]), vec![vec![0], vec![1], vec![2]]);
+    }
+
+    /// The mapping solves a sweep's headings again and again as its
+    /// registration improves. Every solve weighs the turns as the sweep
+    /// measured them, so the verified turns bend no further than one solve
+    /// bends them, however many follow, even toward an anchor that is off
+    /// and never dropped.
+    #[test]
+    fn repeated_chain_solves_keep_the_measured_turns() {
+        let deg = |d: f64| d.to_radians();
+        let measured: Vec<f64> = (0..6).map(|k| deg(30.0 * k as f64)).collect();
+        let links: Vec<(usize, usize)> = (1..6).map(|k| (k - 1, k)).collect();
+        let (ver, cmd) = (deg(0.5), deg(3.0));
+        // Frame 0's own registration is 1.2° off, with a σ that keeps it
+        // inside the three-σ gate; the others agree with the turns.
+        let anchors: Vec<(usize, f64, f64)> = std::iter::once((0, measured[0] + deg(1.2), deg(0.5)))
+            .chain((1..6).map(|k| (k, measured[k], deg(1.0))))
+            .collect();
+        let bend = |x: &[f64]| {
+            links
+                .iter()
+                .map(|&(i, j)| ((x[j] - x[i]) - (measured[j] - measured[i])).abs())
+                .fold(0.0, f64::max)
+        };
+        let chain = chain_links(&measured, &links, ver, cmd);
+        let once = solve_chain(&measured, &chain, anchors.clone()).unwrap();
+        let mut cur = once.clone();
+        for _ in 0..10 {
+            cur = solve_chain(&cur, &chain_links(&measured, &links, ver, cmd), anchors.clone()).unwrap();
+        }
+        assert!(bend(&once) > deg(0.05), "the anchor bends the chain at all");
+        assert!(
+            bend(&cur) <= bend(&once) + deg(0.01),
+            "bent {:.3}° after one solve, {:.3}° after eleven",
+            bend(&once).to_degrees(),
+            bend(&cur).to_degrees()
+        );
+        // Each solve's differences taken as the next one's turns would have
+        // given way to the anchor further at every solve.
+        let mut drifting = once.clone();
+        for _ in 0..10 {
+            drifting = solve_chain(
+                &drifting,
+                &chain_links(&drifting, &links, ver, cmd),
+                anchors.clone(),
+            )
+            .unwrap();
+        }
+        assert!(bend(&drifting) > 2.0 * bend(&once));
     }
 
     #[test]
