@@ -376,12 +376,12 @@ const TURN_SHIFT_M: f64 = 0.002;
 /// pivot) from the turns between them and what the map says of each frame
 /// alone: a chain of relative headings as the sweep measured them
 /// (verified links to a match's accuracy, fallback turns to a command's),
-/// anchored where a frame's own registration (a
-/// turn about the pivot, searched within one command's error) pins its
-/// heading to better than half that. Every heading also keeps a weak pull
-/// (10°) to its current value, so a frame without anchors or links stays.
-/// Linear least squares; anchors more than three standard deviations from
-/// the solution are dropped and it is solved again.
+/// anchored where a frame's own registration (a turn about the pivot,
+/// searched within one command's error) pins its heading to better than
+/// half that. Every heading also keeps a weak pull (10°) to its current
+/// value, so a frame without anchors or links stays. Linear least squares
+/// ([`solve_chain`]); anchors more than three standard deviations from the
+/// solution are dropped and it is solved again.
 fn chain_headings<'f>(
     placed: &mut Placed,
     sweep: &DatasetSweep,

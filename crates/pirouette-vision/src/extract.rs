@@ -262,15 +262,18 @@ fn pooled_trends(own: &[Seed]) -> Vec<Seed> {
                 trends[k] = *slope;
                 k += 1;
             }
-            let median = match trends.len() == k {
-                true => median_of_nine(trends),
-                false => std::array::from_fn(|c| {
+            // Fewer than nine near the image's edges and beside columns
+            // without floor.
+            let median = if k == trends.len() {
+                median_of_nine(trends)
+            } else {
+                std::array::from_fn(|c| {
                     let mut vals = [0f32; 2 * SEED_NEIGHBOUR / TREND_STEP + 1];
                     for (v, tr) in vals.iter_mut().zip(&trends[..k]) {
                         *v = tr[c];
                     }
                     small_median(&mut vals[..k])
-                }),
+                })
             };
             Seed::Track(FloorTrack {
                 level: std::array::from_fn(|c| t.level[c] + (median[c] - t.trend[c]) * lever),
