@@ -1069,7 +1069,10 @@ fn texture_energy(px: &[u8], width: u32, u: u32, rows: std::ops::Range<u32>) -> 
     }
     // The window's leftmost column, kept inside the image.
     let first = (u as usize).saturating_sub(2 * half).min(width as usize - SPAN);
-    let mut values = [0f32; MOST];
+    // Each relative value's bit pattern: the values are finite and not
+    // negative, so their patterns sort as they do, and an integer
+    // selection is cheaper than one by `total_cmp`.
+    let mut keys = [0u32; MOST];
     let (mut count, mut level) = (0, 0f32);
     for v in rows {
         let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
@@ -1083,7 +1086,7 @@ fn texture_energy(px: &[u8], width: u32, u: u32, rows: std::ops::Range<u32>) -> 
             let narrow = (prefix[c + 2] - prefix[c - 1]) as f32 / 3.0;
             let wide = (prefix[c + half + 1] - prefix[c - half]) as f32 / CENTRES as f32;
             if wide > 0.0 {
-                values[count] = (narrow - wide).abs() / wide;
+                keys[count] = ((narrow - wide).abs() / wide).to_bits();
                 level += wide;
                 count += 1;
             }
@@ -1092,10 +1095,9 @@ fn texture_energy(px: &[u8], width: u32, u: u32, rows: std::ops::Range<u32>) -> 
     if count == 0 {
         return None;
     }
-    let values = &mut values[..count];
-    let (_, median, _) = values.select_nth_unstable_by(count / 2, f32::total_cmp);
+    let (_, median, _) = keys[..count].select_nth_unstable(count / 2);
     Some(Texture {
-        median_rel: *median,
+        median_rel: f32::from_bits(*median),
         level: level / count as f32,
     })
 }
@@ -1132,12 +1134,7 @@ fn median_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
         }
         k += 1;
     }
-    (k > 0).then(|| {
-        channels.map(|mut channel| {
-            let (_, median, _) = channel[..k].select_nth_unstable_by(k / 2, f32::total_cmp);
-            *median
-        })
-    })
+    (k > 0).then(|| channels.map(|mut channel| small_median(&mut channel[..k])))
 }
 
 /// Standard deviation of one pixel's grey (the mean of its channels); never

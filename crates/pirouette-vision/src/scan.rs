@@ -233,14 +233,18 @@ struct Block {
 /// a block's columns compile to vector instructions.
 ///
 /// # Memory
-/// About 59 bytes a column (20 KB for 320 columns), rebuilt per image.
+/// About 80 bytes a column (25 KB for 320 columns), rebuilt per image.
 #[derive(Debug, Clone)]
 pub(crate) struct Lanes {
     width: usize,
     blocks: Vec<Block>,
-    /// The current image row with each edge pixel repeated once outside
-    /// it and zeros to fill the last block, as 8-bit RGB.
-    row: Vec<u8>,
+    /// The current image row one channel after another, each pixel summed
+    /// with its left and right neighbours (the edge pixels repeated once
+    /// outside the row), zeros filling the last block: `3 × blocks × 8`.
+    sums: Vec<u16>,
+    /// The current row's channels one after another, the edge pixels
+    /// repeated once either side: `3 × (width + 2)`.
+    planar: Vec<u8>,
 }
 
 impl Lanes {
@@ -249,7 +253,8 @@ impl Lanes {
         Self {
             width,
             blocks: vec![Block::default(); blocks],
-            row: vec![0; (blocks * BLOCK + 2) * 3],
+            sums: vec![0; 3 * blocks * BLOCK],
+            planar: vec![0; 3 * (width + 2)],
         }
     }
 
@@ -331,14 +336,19 @@ impl Lanes {
         cols: std::ops::Range<usize>,
     ) {
         let m = self.width;
-        let src = &px[v * m * 3..(v + 1) * m * 3];
-        self.row[3..3 + m * 3].copy_from_slice(src);
-        self.row.copy_within(3..6, 0);
-        self.row.copy_within(m * 3..m * 3 + 3, m * 3 + 3);
         let span = Self::block_span(&cols);
+        // The columns of the span's blocks that lie in the image.
+        let used = span.start * BLOCK..(span.end * BLOCK).min(m);
+        load_row(
+            &px[v * m * 3..(v + 1) * m * 3],
+            used.clone(),
+            &mut self.planar,
+            &mut self.sums,
+        );
         step_blocks(
             &mut self.blocks[span.clone()],
-            &self.row[span.start * BLOCK * 3..],
+            &self.sums,
+            span.start,
             classifiers,
             rates,
         );
@@ -382,29 +392,86 @@ impl Lanes {
     }
 }
 
-/// One row's step of the blocks (see [`Lanes::step`]); `row` is the padded
-/// row from the blocks' first column on.
+/// Row `row` of an interleaved RGB image (one row of it), columns `cols`,
+/// as the three-pixel sums [`Lanes::step`] classifies: the row split into
+/// its channels (`planar`, see [`Lanes`]), then each pixel summed with its
+/// neighbours into `sums`. Two passes of plain loops over contiguous
+/// arrays, which vectorise; the former per-block gathers from the
+/// interleaved row did not.
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
+fn load_row(row: &[u8], cols: std::ops::Range<usize>, planar: &mut [u8], sums: &mut [u16]) {
+    let m = row.len() / 3;
+    let (stride, lanes) = (m + 2, sums.len() / 3);
+    if cols.is_empty() {
+        return;
+    }
+    // The pixels the sums of `cols` reach, edge pixels repeated.
+    let (lo, hi) = (cols.start.saturating_sub(1), (cols.end + 1).min(m));
+    let (red, rest) = planar.split_at_mut(stride);
+    let (green, blue) = rest.split_at_mut(stride);
+    split_channels(
+        &row[lo * 3..hi * 3],
+        &mut red[lo + 1..],
+        &mut green[lo + 1..],
+        &mut blue[lo + 1..],
+    );
+    let k = cols.len();
+    for (c, channel) in [red, green, blue].into_iter().enumerate() {
+        channel[0] = row[c];
+        channel[m + 1] = row[3 * (m - 1) + c];
+        let out = &mut sums[c * lanes + cols.start..c * lanes + cols.end];
+        let (left, centre, right) = (
+            &channel[cols.start..cols.start + k],
+            &channel[cols.start + 1..cols.start + 1 + k],
+            &channel[cols.start + 2..cols.start + 2 + k],
+        );
+        for u in 0..k {
+            out[u] = left[u] as u16 + centre[u] as u16 + right[u] as u16;
+        }
+    }
+}
+
+/// Interleaved RGB pixels `src` into the starts of three channels. A
+/// function of its own whose outputs are arguments, so the compiler knows
+/// they do not overlap, and slices of exactly the loop's length indexed
+/// from 0: the form it turns into byte shuffles.
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
+fn split_channels(src: &[u8], red: &mut [u8], green: &mut [u8], blue: &mut [u8]) {
+    let n = src.len() / 3;
+    let (red, green, blue) = (&mut red[..n], &mut green[..n], &mut blue[..n]);
+    for i in 0..n {
+        red[i] = src[3 * i];
+        green[i] = src[3 * i + 1];
+        blue[i] = src[3 * i + 2];
+    }
+}
+
+/// One row's step of the blocks (see [`Lanes::step`]); `sums` holds the
+/// row's three-pixel sums of every column, channel after channel (see
+/// [`Lanes`]), and `first` is the first block's index among all.
 #[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1", "aarch64+neon"))]
 fn step_blocks(
     blocks: &mut [Block],
-    row: &[u8],
+    sums: &[u16],
+    first: usize,
     (classifier, edge_classifier): (&Classifier, &Classifier),
     (rate, trend_rate): (f32, f32),
 ) {
-    for (block, bytes) in blocks
-        .iter_mut()
-        .zip(row.windows((BLOCK + 2) * 3).step_by(BLOCK * 3))
-    {
+    let lanes = sums.len() / 3;
+    for (k, block) in blocks.iter_mut().enumerate() {
         if u64::from_ne_bytes(block.alive) == 0 {
             block.off = [0; BLOCK];
             block.edge = [0; BLOCK];
             block.bright_edge = [0; BLOCK];
             continue;
         }
+        let base = (first + k) * BLOCK;
         for c in 0..3 {
+            let sum: &[u16; BLOCK] = sums[c * lanes + base..c * lanes + base + BLOCK]
+                .try_into()
+                .expect("a whole block");
             for i in 0..BLOCK {
-                let sum = bytes[3 * i + c] as u16 + bytes[3 * i + 3 + c] as u16 + bytes[3 * i + 6 + c] as u16;
-                block.pixel[c][i] = sum as f32 * (1.0 / 3.0);
+                block.pixel[c][i] = sum[i] as f32 * (1.0 / 3.0);
                 block.predicted[c][i] = block.level[c][i] + block.trend[c][i];
             }
         }
@@ -501,7 +568,10 @@ pub(crate) struct Candidates {
 impl Candidates {
     pub fn new(width: usize, height: usize) -> Self {
         Self {
-            nodes: Vec::with_capacity(4 * width),
+            // Room for the few thousand candidates of a typical image
+            // (about ten a column), so that the arena seldom grows: each
+            // growth copies every node.
+            nodes: Vec::with_capacity(16 * width),
             head: vec![NONE; width],
             tail: vec![NONE; width],
             due: vec![NONE; height],
@@ -570,5 +640,41 @@ impl Candidates {
 
     pub fn is_empty(&self, u: usize) -> bool {
         self.head[u] == NONE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn loaded_rows_are_the_smoothed_pixels() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        // Widths that fill whole blocks, leave a partial one, or fit in one.
+        for width in [3usize, 8, 13, 64, 77] {
+            let px: Vec<u8> = (0..width * 3).map(|_| rng.random()).collect();
+            let blocks = width.div_ceil(BLOCK);
+            let mut planar = vec![0u8; 3 * (width + 2)];
+            let mut sums = vec![0u16; 3 * blocks * BLOCK];
+            for _ in 0..10 {
+                let a = rng.random_range(0..width);
+                let b = rng.random_range(a + 1..=width);
+                sums.fill(0);
+                load_row(&px, a..b, &mut planar, &mut sums);
+                for u in 0..blocks * BLOCK {
+                    for c in 0..3 {
+                        let got = sums[c * blocks * BLOCK + u];
+                        if (a..b).contains(&u) {
+                            let want = smoothed(&px, width as u32, u as u32, 0)[c] * 3.0;
+                            assert_eq!(got as f32, want.round(), "width {width}, column {u}");
+                        } else {
+                            assert_eq!(got, 0, "width {width}: column {u} outside {a}..{b} written");
+                        }
+                    }
+                }
+            }
+        }
     }
 }
