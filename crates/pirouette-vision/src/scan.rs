@@ -200,9 +200,6 @@ const BLOCK: usize = 8;
 struct Block {
     level: [[f32; BLOCK]; 3],
     trend: [[f32; BLOCK]; 3],
-    /// The current row, each pixel averaged with its left and right
-    /// neighbours (as [`smoothed`]).
-    pixel: [[f32; BLOCK]; 3],
     /// The floor colour the tracks predicted for the current row.
     predicted: [[f32; BLOCK]; 3],
     /// 1 where a column is still being scanned.
@@ -466,12 +463,15 @@ fn step_blocks(
             continue;
         }
         let base = (first + k) * BLOCK;
+        // The row's pixels, each averaged with its left and right
+        // neighbours (as [`smoothed`]).
+        let mut pixel = [[0f32; BLOCK]; 3];
         for c in 0..3 {
             let sum: &[u16; BLOCK] = sums[c * lanes + base..c * lanes + base + BLOCK]
                 .try_into()
                 .expect("a whole block");
             for i in 0..BLOCK {
-                block.pixel[c][i] = sum[i] as f32 * (1.0 / 3.0);
+                pixel[c][i] = sum[i] as f32 * (1.0 / 3.0);
                 block.predicted[c][i] = block.level[c][i] + block.trend[c][i];
             }
         }
@@ -484,7 +484,7 @@ fn step_blocks(
                 block.predicted[1][i],
                 block.predicted[2][i],
             ];
-            let p = [block.pixel[0][i], block.pixel[1][i], block.pixel[2][i]];
+            let p = [pixel[0][i], pixel[1][i], pixel[2][i]];
             let masks = classifier.masks(&p, &q, edge_classifier);
             (floor[i], close[i], steady[i]) = (masks.floor, masks.close, masks.steady);
         }
@@ -506,7 +506,7 @@ fn step_blocks(
             for i in 0..BLOCK {
                 let (level, trend) = (block.level[c][i], block.trend[c][i]);
                 let pred = block.predicted[c][i];
-                let taken = pred + (take[i] * rate) * (block.pixel[c][i] - pred);
+                let taken = pred + (take[i] * rate) * (pixel[c][i] - pred);
                 block.trend[c][i] = trend + (take[i] * trend_rate) * (taken - level - trend);
                 block.level[c][i] = taken;
             }
