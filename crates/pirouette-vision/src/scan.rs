@@ -230,7 +230,7 @@ struct Block {
 /// a block's columns compile to vector instructions.
 ///
 /// # Memory
-/// About 80 bytes a column (25 KB for 320 columns), rebuilt per image.
+/// About 70 bytes a column (22 KB for 320 columns), rebuilt per image.
 #[derive(Debug, Clone)]
 pub(crate) struct Lanes {
     width: usize,
