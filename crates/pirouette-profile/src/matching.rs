@@ -1051,7 +1051,7 @@ impl Pair<'_> {
             c[base..base + LANES].try_into().expect("a whole block")
         }
         let when = |mask: bool, x: f32| if mask { x } else { 0.0 };
-        for base in (0..n).step_by(LANES) {
+        for base in (0..n / LANES).map(|b| b * LANES) {
             let (ia, ib, ha, hb) = (
                 block(pair.ia, base),
                 block(pair.ib, base),
