@@ -38,10 +38,12 @@
 #![deny(missing_docs)]
 
 mod boundary;
+mod config;
 mod extract;
 mod scan;
 
 pub use boundary::ColumnBoundary;
-pub use extract::{RopExtractor, VisionConfig, VisionError};
+pub use config::{VisionConfig, VisionError};
+pub use extract::RopExtractor;
 #[doc(no_inline)]
 pub use pirouette_profile::Rop;

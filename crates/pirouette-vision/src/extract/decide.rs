@@ -1,0 +1,271 @@
+//! Deciding candidate obstacle bases: the cues that confirm a pixel off the
+//! floor or a sharp step as an obstacle's base, and the boundary's sub-pixel
+//! row and colour.
+
+use super::seed::small_median;
+use super::texture::{texture_energy, TEXTURE_MIN_ROWS, TEXTURE_ROWS};
+use super::RopExtractor;
+use crate::scan::{smoothed, Candidate, Classifier, FloorTrack, SQRT_3};
+use crate::ColumnBoundary;
+use pirouette_profile::ColourTag;
+
+/// Rows each side of a boundary used to measure floor and obstacle levels.
+const LEVEL_OFFSET: u32 = 3;
+
+impl RopExtractor {
+    /// Whether a candidate whose run has been scanned, `off` of its rows
+    /// not floor, is the base of an obstacle, and if so the boundary: the
+    /// run above it must be as tall as an obstacle would be there, and the
+    /// column itself must show it.
+    pub(super) fn decide(
+        &self,
+        px: &[u8],
+        u: u32,
+        c: &Candidate,
+        off: u32,
+        classifier: &Classifier,
+    ) -> Option<ColumnBoundary> {
+        if c.edge {
+            return Some(self.refine(px, u, c.row, c.floor, c.trend));
+        }
+        let span = c.row - c.lo + 1;
+        // The column itself, not just its neighbours averaged into it, must
+        // show the obstacle: beside an obstacle's side edge a third of an
+        // obstacle pixel is enough to trip the test.
+        (off as f32 >= self.config.run_fraction * span as f32
+            && self.column_confirms(px, u, c.row, &c.floor, classifier))
+        .then(|| self.refine(px, u, c.row, c.floor, c.trend))
+    }
+
+    /// Whether a sharp step at row `v` of column `u` (a floor pixel no
+    /// longer close to the floor, above one that was) is an obstacle's base:
+    /// following the floor from `coasted` (the track after coasting over
+    /// row `v`) with the edge test's tolerances, the run above must stay off
+    /// the floor as an obstacle's would, and the column itself must show it.
+    pub(super) fn edge_confirms(
+        &self,
+        px: &[u8],
+        u: u32,
+        v: u32,
+        coasted: FloorTrack,
+        edge: &Classifier,
+    ) -> bool {
+        let run = self.run_rows[(v * self.width + u) as usize].max(1) as u32;
+        let lo = (v + 1).saturating_sub(run);
+        let mut ahead = coasted;
+        let mut off = 1u32;
+        for w in (lo..v).rev() {
+            let q = smoothed(px, self.width, u, w);
+            let close = edge.is_floor(&q, &ahead.predict());
+            ahead.step(&q, close, self.config.adapt_rate, self.config.trend_rate);
+            off += (!close) as u32;
+        }
+        let pred: [f32; 3] = std::array::from_fn(|c| coasted.level[c]);
+        off as f32 >= self.config.run_fraction * (v - lo + 1) as f32
+            && self.column_confirms(px, u, v, &pred, edge)
+    }
+
+    /// Whether a sharp step of brightness alone at row `v` of column `u` is
+    /// an obstacle's base. The floor's level is the median of the rows
+    /// below the step, as they are: not the track's extrapolation, which a
+    /// speck's flank bends, and not a mean, which a speck's glow lifts (a
+    /// wall's base is a step between two plateaus; a speck's top edge only
+    /// the far side of a peak). The run above must stay off that level
+    /// with both tolerances scaled (`both`) as an obstacle's would, and the
+    /// column itself must show it; and the texture above the step must
+    /// drop below [`VisionConfig::texture_ratio`](crate::VisionConfig::texture_ratio) of the floor's below it,
+    /// both counted beyond the sensor noise (`grey_sigma`, of one pixel's
+    /// grey), and the floor's must stand out of that noise.
+    pub(super) fn bright_edge_confirms(
+        &self,
+        px: &[u8],
+        u: u32,
+        v: u32,
+        both: &Classifier,
+        grey_sigma: f32,
+    ) -> bool {
+        let (m, n) = (self.width, self.height);
+        // The floor's level and texture are judged over two windows below
+        // the step: nearer the image's bottom there is too little floor.
+        if v + 2 + 2 * TEXTURE_ROWS > n {
+            return false;
+        }
+        // Rows above the step and below it, leaving out the row of the
+        // step and the one under it (the boundary may blur over both).
+        let above = v.saturating_sub(TEXTURE_ROWS)..v;
+        let below = v + 2..v + 2 + TEXTURE_ROWS;
+        if above.len() < TEXTURE_MIN_ROWS {
+            return false;
+        }
+        let level_rows = v + 2..v + 2 + 2 * TEXTURE_ROWS;
+        let Some(floor) = median_of(level_rows.map(|w| smoothed(px, m, u, w))) else {
+            return false;
+        };
+        let run = self.run_rows[(v * m + u) as usize].max(1) as u32;
+        let lo = (v + 1).saturating_sub(run);
+        let off = (lo..=v)
+            .filter(|&w| !both.is_floor(&smoothed(px, m, u, w), &floor))
+            .count();
+        if (off as f32) < self.config.run_fraction * (v - lo + 1) as f32
+            || !self.column_confirms(px, u, v, &floor, both)
+        {
+            return false;
+        }
+        // The run is a plateau too: its rows keep to their own median
+        // colour, where a floor that brightens steadily drifts away.
+        let Some(plateau) = median_of(
+            (lo..=v)
+                .take(2 * TEXTURE_ROWS as usize)
+                .map(|w| smoothed(px, m, u, w)),
+        ) else {
+            return false;
+        };
+        let steady = (lo..=v)
+            .take(2 * TEXTURE_ROWS as usize)
+            .filter(|&w| both.is_floor(&smoothed(px, m, u, w), &plateau))
+            .count();
+        if (steady as f32) < self.config.run_fraction * (v - lo + 1).min(2 * TEXTURE_ROWS) as f32 {
+            return false;
+        }
+        // The floor's texture: the lesser of two windows below, so that a
+        // speck in one of them does not count as the floor's grain.
+        let lower = v + 2 + TEXTURE_ROWS..v + 2 + 2 * TEXTURE_ROWS;
+        let (Some(above), Some(mut below)) =
+            (texture_energy(px, m, u, above), texture_energy(px, m, u, below))
+        else {
+            return false;
+        };
+        if let Some(t) = texture_energy(px, m, u, lower) {
+            if t.beyond_noise(grey_sigma) < below.beyond_noise(grey_sigma) {
+                below = t;
+            }
+        }
+        let (s_above, s_below) = (above.beyond_noise(grey_sigma), below.beyond_noise(grey_sigma));
+        s_below >= below.noise(grey_sigma) && s_above <= self.config.texture_ratio * s_below
+    }
+
+    /// Whether the raw pixels of column `u` just above row `v` (two of the
+    /// three rows `v−1 ..= v−3`, or all that exist) leave the floor `pred`,
+    /// with the noise allowance of a single pixel.
+    pub(super) fn column_confirms(
+        &self,
+        px: &[u8],
+        u: u32,
+        v: u32,
+        pred: &[f32; 3],
+        classifier: &Classifier,
+    ) -> bool {
+        let single = Classifier {
+            noise: classifier.noise * SQRT_3,
+            ..*classifier
+        };
+        let rows = v.min(3) as usize;
+        if rows == 0 {
+            return true;
+        }
+        let off = (1..=rows as u32)
+            .filter(|&k| {
+                let i = ((v - k) * self.width + u) as usize * 3;
+                !single.is_floor(&[px[i] as f32, px[i + 1] as f32, px[i + 2] as f32], pred)
+            })
+            .count();
+        off * 3 >= rows * 2
+    }
+
+    /// Sub-pixel row and colour of a boundary first detected at row `v`:
+    /// the share of obstacle in each row of a window around `v`, from the
+    /// levels of floor below and obstacle above, locates the edge without
+    /// blurring it. The floor's level is carried from the rows it is
+    /// measured in up to each row of the window along `trend`, the floor
+    /// track's change per row there: floor that darkens toward a wall's
+    /// base (or brightens toward the horizon) would otherwise count as a
+    /// share of the obstacle and put the edge low, the range short.
+    pub(super) fn refine(
+        &self,
+        px: &[u8],
+        u: u32,
+        v: u32,
+        floor_ref: [f32; 3],
+        trend: [f32; 3],
+    ) -> ColumnBoundary {
+        let (m, n) = (self.width, self.height);
+        let pix = |w: u32| smoothed(px, m, u, w);
+        let above = (1..=2).filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1));
+        let obstacle = mean_of(above.map(pix)).unwrap_or_else(|| pix(v.saturating_sub(1)));
+        let below = (LEVEL_OFFSET..LEVEL_OFFSET + 2).map(|k| v + k).filter(|&w| w < n);
+        let floor = mean_of(below.clone().map(pix)).unwrap_or(floor_ref);
+        // The row the floor's level stands for: the mean of the rows it was
+        // measured in, or the detected row itself, where the track's
+        // prediction stands in for them (at the image's bottom).
+        let level_row = match below.clone().count() {
+            0 => v as f32,
+            k => below.map(|w| w as f32).sum::<f32>() / k as f32,
+        };
+        let diff = [
+            obstacle[0] - floor[0],
+            obstacle[1] - floor[1],
+            obstacle[2] - floor[2],
+        ];
+        let norm2: f32 = diff.iter().map(|d| d * d).sum();
+        let colour = ColourTag::from_rgb(obstacle);
+        if norm2 < 1.0 {
+            return ColumnBoundary::Obstacle {
+                row: v as f32 + 0.5,
+                colour,
+            };
+        }
+        // Window rows v−2 ..= v+2; the obstacle is on top.
+        let mut floor_share = 0.0;
+        let lo = v.saturating_sub(2);
+        let hi = (v + 2).min(n - 1);
+        for w in lo..=hi {
+            let p = pix(w);
+            let up = level_row - w as f32;
+            let f = [
+                floor[0] + trend[0] * up,
+                floor[1] + trend[1] * up,
+                floor[2] + trend[2] * up,
+            ];
+            let d = [obstacle[0] - f[0], obstacle[1] - f[1], obstacle[2] - f[2]];
+            let nd: f32 = d.iter().map(|x| x * x).sum();
+            let a = if nd < 1.0 {
+                0.5
+            } else {
+                ((p[0] - f[0]) * d[0] + (p[1] - f[1]) * d[1] + (p[2] - f[2]) * d[2]) / nd
+            };
+            floor_share += 1.0 - a.clamp(0.0, 1.0);
+        }
+        let row = hi as f32 + 0.5 - floor_share;
+        ColumnBoundary::Obstacle {
+            row: row.clamp(lo as f32 - 0.5, hi as f32 + 0.5),
+            colour,
+        }
+    }
+}
+
+/// The mean of some colours, `None` when there are none.
+fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
+    let (mut s, mut k) = ([0f32; 3], 0);
+    for p in it {
+        for (acc, x) in s.iter_mut().zip(p) {
+            *acc += x;
+        }
+        k += 1;
+    }
+    (k > 0).then(|| s.map(|x| x / k as f32))
+}
+
+/// The per-channel median of at most `2·TEXTURE_ROWS` colours, `None` when
+/// there are none.
+fn median_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
+    const MOST: usize = 2 * TEXTURE_ROWS as usize;
+    let mut channels = [[0f32; MOST]; 3];
+    let mut k = 0;
+    for p in it.take(MOST) {
+        for (channel, x) in channels.iter_mut().zip(p) {
+            channel[k] = x;
+        }
+        k += 1;
+    }
+    (k > 0).then(|| channels.map(|mut channel| small_median(&mut channel[..k])))
+}
