@@ -1,0 +1,237 @@
+//! A verified turn refined together with the small shift of the robot's
+//! centre during it.
+
+use super::TurnShift;
+use crate::Rop;
+
+/// Refines a turn `theta0` together with a small shift of the robot
+/// centre during it (a Gaussian prior of `shift_sigma_m` each way, about
+/// the shift a turn about `pivot_m` makes): a robot turning in place about
+/// a point a few millimetres off its centre moves that centre, and the
+/// profiles see the parallax. Left to the turn alone,
+/// it bends the estimate on a slanted wall, where a shift toward the wall
+/// and a rotation look alike. Every finite range of `after` is moved into
+/// `before`'s frame and compared with `before` there in inverse range, in
+/// units of `sigma_inv` with the matcher's robust truncation, plus the
+/// prior; Gauss-Newton from `theta0` and the expected shift. Returns the
+/// turn and the shift (`after`'s centre in `before`'s frame) with what the
+/// profiles alone say of it, or `None` where the refinement left the basin
+/// the match verified (`basin_rad` about `theta0`).
+///
+/// The shifts are small beside the ranges, so a point's bearing is moved
+/// to first order in the shift, around its bearing at `theta0`.
+pub(super) fn refine_with_shift(
+    before: &Rop,
+    after: &Rop,
+    theta0: f64,
+    sigma_inv: f64,
+    shift_sigma_m: f64,
+    pivot_m: [f64; 2],
+    basin_rad: f64,
+) -> Option<(f64, TurnShift)> {
+    struct Point {
+        /// Bearing in `before`'s frame at `theta0`.
+        bearing: f64,
+        cos: f64,
+        sin: f64,
+        range: f64,
+        /// The bearing's derivatives in the shift, `(-sin, cos) / range`.
+        d_bearing: [f64; 2],
+    }
+    // The bins' directions by rotating the first one bin by bin (one
+    // `sin_cos` for the first bearing, one for the bin width; the rounding
+    // error grows by about an ulp a bin).
+    let mut points = Vec::with_capacity(after.len());
+    let (mut sin, mut cos) = (after.bin_centre_rad(0) + theta0).sin_cos();
+    let (sin_w, cos_w) = after.bin_width_rad.sin_cos();
+    for i in 0..after.len() {
+        let range = after.range_m[i] as f64;
+        if range.is_finite() {
+            points.push(Point {
+                bearing: after.bin_centre_rad(i) + theta0,
+                cos,
+                sin,
+                range,
+                d_bearing: [-sin / range, cos / range],
+            });
+        }
+        (sin, cos) = (sin * cos_w + cos * sin_w, cos * cos_w - sin * sin_w);
+    }
+    /// A bin of `before`: the interval of inverse ranges it allows (one
+    /// value where it sees an obstacle), `None` where it was not seen.
+    #[derive(Clone, Copy)]
+    struct Bin {
+        lo: f64,
+        hi: f64,
+        obstacle: bool,
+    }
+    let bins: Vec<Option<Bin>> = (0..before.len())
+        .map(|j| {
+            let r = before.range_m[j] as f64;
+            if r.is_nan() {
+                None
+            } else if r.is_finite() {
+                Some(Bin {
+                    lo: 1.0 / r,
+                    hi: 1.0 / r,
+                    obstacle: true,
+                })
+            } else {
+                Some(Bin {
+                    lo: 0.0,
+                    hi: 1.0 / (before.free_reach(j) as f64).max(1e-3),
+                    obstacle: false,
+                })
+            }
+        })
+        .collect();
+    let (start, w) = (before.bearing_start_rad, before.bin_width_rad);
+    // A point's residual in units of `sigma_inv` at turn `theta0 + x[0]`
+    // and shift `(x[1], x[2])`, with its derivatives in those three:
+    // against `before`'s inverse range interpolated between bin centres
+    // where both neighbours see an obstacle, else against the interval of
+    // the bin it falls in. `None` where it falls outside `before` or on an
+    // unseen bin.
+    let residual = |p: &Point, x: &[f64; 3]| -> Option<(f64, [f64; 3])> {
+        let d_bearing = [1.0, p.d_bearing[0], p.d_bearing[1]];
+        let bearing = p.bearing + x[0] + x[1] * d_bearing[1] + x[2] * d_bearing[2];
+        let u = (bearing - start) / w;
+        // (NaN falls outside too.)
+        if u.is_nan() || u < 0.0 {
+            return None;
+        }
+        let bin = (*bins.get(u as usize)?)?;
+        let inv = 1.0 / (p.range + x[1] * p.cos + x[2] * p.sin);
+        let d_inv = [0.0, -p.cos * inv * inv, -p.sin * inv * inv];
+        // The bin centres either side: `j0` and `j0 + 1` (`u ≥ 0`, so the
+        // truncation is a floor from -0.5 up).
+        let v = u - 0.5;
+        if v >= 0.0 {
+            let j0 = v as usize;
+            if let (Some(Some(a)), Some(Some(b))) = (bins.get(j0), bins.get(j0 + 1)) {
+                if a.obstacle && b.obstacle {
+                    let f = v - j0 as f64;
+                    let expect = (1.0 - f) * a.lo + f * b.lo;
+                    let slope = (b.lo - a.lo) / w;
+                    let de = [
+                        (d_inv[0] - slope * d_bearing[0]) / sigma_inv,
+                        (d_inv[1] - slope * d_bearing[1]) / sigma_inv,
+                        (d_inv[2] - slope * d_bearing[2]) / sigma_inv,
+                    ];
+                    return Some(((inv - expect) / sigma_inv, de));
+                }
+            }
+        }
+        let (e, sign) = if inv - bin.hi > 0.0 && inv - bin.hi >= bin.lo - inv {
+            (inv - bin.hi, 1.0)
+        } else if bin.lo - inv > 0.0 {
+            (bin.lo - inv, -1.0)
+        } else {
+            return Some((0.0, [0.0; 3]));
+        };
+        let s = sign / sigma_inv;
+        Some((e / sigma_inv, [d_inv[0] * s, d_inv[1] * s, d_inv[2] * s]))
+    };
+    let prior = 1.0 / (shift_sigma_m * shift_sigma_m);
+    // The shift a turn by `theta0` about the pivot makes: `(I − R)·pivot`.
+    let expected = {
+        let (s, c) = theta0.sin_cos();
+        [
+            (1.0 - c) * pivot_m[0] + s * pivot_m[1],
+            -s * pivot_m[0] + (1.0 - c) * pivot_m[1],
+        ]
+    };
+    // The matcher's robust cost (truncated quadratic) plus the prior at
+    // `x`, and the Gauss-Newton normal equations of its inliers (|e| ≤ 3:
+    // the truncation's quadratic part), in one pass over the points.
+    let linearise = |x: &[f64; 3]| -> (f64, [[f64; 3]; 3], [f64; 3]) {
+        let (ex, ey) = (x[1] - expected[0], x[2] - expected[1]);
+        let mut cost = (ex * ex + ey * ey) * prior;
+        let mut a = [[0.0; 3]; 3];
+        let mut g = [0.0, ex * prior, ey * prior];
+        a[1][1] = prior;
+        a[2][2] = prior;
+        for p in &points {
+            let Some((e, jac)) = residual(p, x) else {
+                continue;
+            };
+            cost += (e * e).min(9.0);
+            if e.abs() <= 3.0 {
+                for r in 0..3 {
+                    g[r] += jac[r] * e;
+                    for c in 0..3 {
+                        a[r][c] += jac[r] * jac[c];
+                    }
+                }
+            }
+        }
+        (cost, a, g)
+    };
+    // Gauss-Newton with step halving, until a step no longer moves the
+    // turn by a microradian or the shift by a hundredth of a millimetre.
+    let mut x = [0.0, expected[0], expected[1]];
+    let (mut best, mut a, mut g) = linearise(&x);
+    for _ in 0..10 {
+        let Some(step) = solve3(&a, &g) else { break };
+        if step[0].abs() < 1e-6 && step[1].hypot(step[2]) < 1e-5 {
+            break;
+        }
+        let mut scale = 1.0;
+        let mut moved = false;
+        for _ in 0..6 {
+            let trial = [
+                x[0] - scale * step[0],
+                x[1] - scale * step[1],
+                x[2] - scale * step[2],
+            ];
+            let (value, ta, tg) = linearise(&trial);
+            if value < best {
+                (x, best, a, g, moved) = (trial, value, ta, tg, true);
+                break;
+            }
+            scale *= 0.5;
+        }
+        if !moved || (scale * step[0]).abs() < 1e-6 {
+            break;
+        }
+    }
+    // The profiles' information on the shift: the normal matrix without
+    // the prior, the turn marginalised out (its Schur complement).
+    let mut information = [[a[1][1] - prior, a[1][2]], [a[2][1], a[2][2] - prior]];
+    if a[0][0] > 0.0 {
+        for r in 0..2 {
+            for c in 0..2 {
+                information[r][c] -= a[r + 1][0] * a[0][c + 1] / a[0][0];
+            }
+        }
+    }
+    let shift = TurnShift {
+        shift_m: [x[1], x[2]],
+        prior_mean_m: expected,
+        prior_information: prior,
+        information,
+    };
+    (x[0].abs() <= basin_rad).then_some((theta0 + x[0], shift))
+}
+
+/// The solution of the 3 × 3 system `a·x = b` (Cramer's rule), `None` when
+/// `a` is singular.
+fn solve3(a: &[[f64; 3]; 3], b: &[f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(a);
+    if !d.is_finite() || d.abs() < 1e-300 {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (k, xk) in x.iter_mut().enumerate() {
+        let mut m = *a;
+        for r in 0..3 {
+            m[r][k] = b[r];
+        }
+        *xk = det(&m) / d;
+    }
+    Some(x)
+}
