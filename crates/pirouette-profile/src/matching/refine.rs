@@ -57,31 +57,19 @@ pub(super) fn refine_with_shift(
         }
         (sin, cos) = (sin * cos_w + cos * sin_w, cos * cos_w - sin * sin_w);
     }
-    /// A bin of `before`: the interval of inverse ranges it allows (one
-    /// value where it sees an obstacle), `None` where it was not seen.
-    #[derive(Clone, Copy)]
-    struct Bin {
-        lo: f64,
-        hi: f64,
-        obstacle: bool,
-    }
-    let bins: Vec<Option<Bin>> = (0..before.len())
+    // Each bin of `before` as the interval of inverse ranges it allows,
+    // `[lo, hi]`: one value where it sees an obstacle (`lo > 0` exactly
+    // there), from 0 to its reach's inverse where it saw nothing in sight,
+    // NaN where it was not seen.
+    let bins: Vec<[f64; 2]> = (0..before.len())
         .map(|j| {
             let r = before.range_m[j] as f64;
-            if r.is_nan() {
-                None
-            } else if r.is_finite() {
-                Some(Bin {
-                    lo: 1.0 / r,
-                    hi: 1.0 / r,
-                    obstacle: true,
-                })
+            if r.is_finite() {
+                [1.0 / r, 1.0 / r]
+            } else if r.is_nan() {
+                [f64::NAN; 2]
             } else {
-                Some(Bin {
-                    lo: 0.0,
-                    hi: 1.0 / (before.free_reach(j) as f64).max(1e-3),
-                    obstacle: false,
-                })
+                [0.0, 1.0 / (before.free_reach(j) as f64).max(1e-3)]
             }
         })
         .collect();
@@ -100,19 +88,23 @@ pub(super) fn refine_with_shift(
         if u.is_nan() || u < 0.0 {
             return None;
         }
-        let bin = (*bins.get(u as usize)?)?;
+        let [lo, hi] = *bins.get(u as usize)?;
+        if lo.is_nan() {
+            return None;
+        }
         let inv = 1.0 / (p.range + x[1] * p.cos + x[2] * p.sin);
         let d_inv = [0.0, -p.cos * inv * inv, -p.sin * inv * inv];
         // The bin centres either side: `j0` and `j0 + 1` (`u ≥ 0`, so the
-        // truncation is a floor from -0.5 up).
+        // truncation is a floor from -0.5 up); both must see an obstacle
+        // (NaN, unseen, compares false).
         let v = u - 0.5;
         if v >= 0.0 {
             let j0 = v as usize;
-            if let (Some(Some(a)), Some(Some(b))) = (bins.get(j0), bins.get(j0 + 1)) {
-                if a.obstacle && b.obstacle {
+            if let (Some(&[a, _]), Some(&[b, _])) = (bins.get(j0), bins.get(j0 + 1)) {
+                if a > 0.0 && b > 0.0 {
                     let f = v - j0 as f64;
-                    let expect = (1.0 - f) * a.lo + f * b.lo;
-                    let slope = (b.lo - a.lo) / w;
+                    let expect = (1.0 - f) * a + f * b;
+                    let slope = (b - a) / w;
                     let de = [
                         (d_inv[0] - slope * d_bearing[0]) / sigma_inv,
                         (d_inv[1] - slope * d_bearing[1]) / sigma_inv,
@@ -122,10 +114,10 @@ pub(super) fn refine_with_shift(
                 }
             }
         }
-        let (e, sign) = if inv - bin.hi > 0.0 && inv - bin.hi >= bin.lo - inv {
-            (inv - bin.hi, 1.0)
-        } else if bin.lo - inv > 0.0 {
-            (bin.lo - inv, -1.0)
+        let (e, sign) = if inv - hi > 0.0 && inv - hi >= lo - inv {
+            (inv - hi, 1.0)
+        } else if lo - inv > 0.0 {
+            (lo - inv, -1.0)
         } else {
             return Some((0.0, [0.0; 3]));
         };
