@@ -1027,6 +1027,30 @@ mod tests {
         assert!(found.is_empty(), "obstacles in columns {found:?}");
     }
 
+    /// Lint close to the camera: a flat bright blob 24 columns wide and 12
+    /// rows tall across the bottom rows, as wide as the seeds' nearest
+    /// neighbours' reach and more, so that those neighbours lie on it too.
+    /// Only seeds farther out on both sides show the floor; without them the
+    /// blob was taken for the floor and the floor above it for an obstacle.
+    #[test]
+    fn wide_specks_in_the_seed_rows_are_floor() {
+        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
+            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
+            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+        });
+        for u in 140..164 {
+            for v in 228..240 {
+                img.put_pixel(u, v, image::Rgb([200, 200, 195]));
+            }
+        }
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        let b = ex.boundaries(&img).unwrap();
+        let found: Vec<usize> = (0..b.len())
+            .filter(|&u| !matches!(b[u], ColumnBoundary::Clear { .. }))
+            .collect();
+        assert!(found.is_empty(), "obstacles in columns {found:?}");
+    }
+
     #[test]
     fn uniform_images_give_empty_profiles_and_wrong_sizes_errors() {
         let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());

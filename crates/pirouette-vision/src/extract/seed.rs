@@ -12,6 +12,10 @@ pub(super) const SEED_ROWS: u32 = 6;
 /// a speck of lint six pixels wide widened by the three-pixel smoothing.
 const SEED_NEIGHBOUR: usize = 8;
 
+/// How far out, columns, a seed is compared with seeds on both sides
+/// after its nearest neighbours (see [`RopExtractor::seeds`]).
+const WIDE_SPECK_SCALES: [usize; 2] = [2 * SEED_NEIGHBOUR, 4 * SEED_NEIGHBOUR];
+
 /// Every how many columns the neighbours' seed trends are sampled for
 /// [`pooled_trends`]: two apart, the three-pixel means share one pixel in
 /// three instead of two.
@@ -144,10 +148,15 @@ impl RopExtractor {
     /// [`SEED_NEIGHBOUR`] columns either side; near the image's edge the
     /// missing side is the line through the two inward ones (that far and
     /// twice as far), so that the dark corners of vignetting pass. A clean
-    /// column next to a speck still agrees with its other side. A real
-    /// obstacle at the bottom narrower than twice `SEED_NEIGHBOUR` columns
-    /// is then followed as one from the row above the seed, where before
-    /// its colour was taken for the floor's.
+    /// column next to a speck still agrees with its other side.
+    ///
+    /// Lint close to the camera is wider than that reach: the neighbours lie
+    /// on it too and agree, or straddle its edge and disagree with each
+    /// other. The seed is then compared with seeds farther out
+    /// ([`WIDE_SPECK_SCALES`]), on both sides only, that agree with each
+    /// other. A real obstacle at the bottom narrower than twice the
+    /// farthest scale is then followed as one from the row above the seed,
+    /// where before its colour was taken for the floor's.
     pub(super) fn seeds(&self, px: &[u8], classifier: &Classifier) -> Vec<Seed> {
         let n = self.height;
         let own: Vec<Seed> = self
@@ -187,23 +196,46 @@ impl RopExtractor {
                 };
                 let (near_l, near_r) = (track(u.checked_sub(k)), track(Some(u + k)));
                 let far = |j: Option<usize>, near: FloorTrack| track(j).map(|f| line(near, f, -1.0));
-                let sides = match (near_l, near_r) {
-                    (Some(l), Some(r)) => [l, r],
+                // Both sides, or near the image's edge one side and the
+                // line through the two inward seeds; whether both sides are
+                // seeds of their own.
+                let (sides, both) = match (near_l, near_r) {
+                    (Some(l), Some(r)) => ([l, r], true),
                     (None, Some(r)) => match far(Some(u + 2 * k), r) {
-                        Some(e) => [e, r],
+                        Some(e) => ([e, r], false),
                         None => return own[u],
                     },
                     (Some(l), None) => match far(u.checked_sub(2 * k), l) {
-                        Some(e) => [l, e],
+                        Some(e) => ([l, e], false),
                         None => return own[u],
                     },
                     (None, None) => return own[u],
                 };
-                if sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) {
-                    own[u]
-                } else {
-                    Seed::Track(line(sides[0], sides[1], 0.5))
+                // Two sides that disagree with each other cannot both be
+                // floor: the edge of a wider speck, to be judged from
+                // farther out.
+                let sides_agree = !both || classifier.is_floor(&sides[0].level, &sides[1].level);
+                if sides_agree && !sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) {
+                    return Seed::Track(line(sides[0], sides[1], 0.5));
                 }
+                // A wider speck (lint close to the camera spans tens of
+                // columns): seeds farther out on both sides that agree with
+                // each other but not with this one.
+                for scale in WIDE_SPECK_SCALES {
+                    // Both sides only: near the image's edge a line
+                    // extrapolated that far misses the dark corners of
+                    // vignetting.
+                    let (Some(l), Some(r)) = (track(u.checked_sub(scale)), track(Some(u + scale))) else {
+                        break;
+                    };
+                    if classifier.is_floor(&l.level, &r.level)
+                        && !classifier.is_floor(&t.level, &l.level)
+                        && !classifier.is_floor(&t.level, &r.level)
+                    {
+                        return Seed::Track(line(l, r, 0.5));
+                    }
+                }
+                own[u]
             })
             .collect()
     }
