@@ -214,8 +214,8 @@ impl RopExtractor {
                 // Two sides that disagree with each other cannot both be
                 // floor: the edge of a wider speck, to be judged from
                 // farther out.
-                let sides_agree = !both || classifier.is_floor(&sides[0].level, &sides[1].level);
-                if sides_agree && !sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) {
+                let sides_agree = || !both || classifier.is_floor(&sides[0].level, &sides[1].level);
+                if !sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) && sides_agree() {
                     return Seed::Track(line(sides[0], sides[1], 0.5));
                 }
                 // A wider speck (lint close to the camera spans tens of
@@ -228,9 +228,10 @@ impl RopExtractor {
                     let (Some(l), Some(r)) = (track(u.checked_sub(scale)), track(Some(u + scale))) else {
                         break;
                     };
-                    if classifier.is_floor(&l.level, &r.level)
-                        && !classifier.is_floor(&t.level, &l.level)
+                    // (The floor's usual case, agreeing with `l`, first.)
+                    if !classifier.is_floor(&t.level, &l.level)
                         && !classifier.is_floor(&t.level, &r.level)
+                        && classifier.is_floor(&l.level, &r.level)
                     {
                         return Seed::Track(line(l, r, 0.5));
                     }
