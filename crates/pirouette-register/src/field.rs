@@ -198,18 +198,28 @@ impl LikelihoodField {
         // within `reach` cells: every point stamps its neighbourhood (as far
         // as the lattice goes).
         let mut d2 = vec![f64::INFINITY; width * height];
+        // A point's squared offsets across the columns it reaches, shared by
+        // all its rows.
+        let mut dx2 = Vec::with_capacity(2 * reach as usize + 1);
         for p in &points {
             let (i, j) = cell(p);
             let (ci, cj) = (i - min_cell.0, j - min_cell.1);
             let (i_lo, i_hi) = ((ci - reach).max(0), (ci + reach).min(width as i64 - 1));
             let (j_lo, j_hi) = ((cj - reach).max(0), (cj + reach).min(height as i64 - 1));
+            if i_lo > i_hi {
+                continue;
+            }
+            dx2.clear();
+            dx2.extend((i_lo..=i_hi).map(|x| {
+                let ddx = ((min_cell.0 + x) as f64 + 0.5) * resolution_m - p.x;
+                ddx * ddx
+            }));
             for y in j_lo..=j_hi {
                 let ddy = ((min_cell.1 + y) as f64 + 0.5) * resolution_m - p.y;
+                let dy2 = ddy * ddy;
                 let row = y as usize * width;
-                for x in i_lo..=i_hi {
-                    let ddx = ((min_cell.0 + x) as f64 + 0.5) * resolution_m - p.x;
-                    let k = row + x as usize;
-                    d2[k] = d2[k].min(ddx * ddx + ddy * ddy);
+                for (d, &dx2) in d2[row + i_lo as usize..=row + i_hi as usize].iter_mut().zip(&dx2) {
+                    *d = d.min(dx2 + dy2);
                 }
             }
         }
