@@ -945,13 +945,27 @@ mod tests {
         );
     }
 
+    /// A plain floor brightening 1 % per row upwards, 320 × 240.
+    fn brightening_floor() -> image::RgbImage {
+        image::RgbImage::from_fn(320, 240, |_, v| {
+            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
+            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+        })
+    }
+
+    /// The columns of `img` that the default extractor does not find clear.
+    fn obstacle_columns(img: &image::RgbImage) -> Vec<usize> {
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        let b = ex.boundaries(img).unwrap();
+        (0..b.len())
+            .filter(|&u| !matches!(b[u], ColumnBoundary::Clear { .. }))
+            .collect()
+    }
+
     #[test]
     fn specks_and_gradients_are_floor() {
         // Floor brightening 1 % per row upwards, with small bright specks.
-        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
-            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
-            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
-        });
+        let mut img = brightening_floor();
         for (cu, cv) in [(50u32, 200u32), (160, 150), (250, 90), (100, 40)] {
             for du in 0..4 {
                 for dv in 0..4 {
@@ -1008,10 +1022,7 @@ mod tests {
         // The floor of `specks_and_gradients_are_floor`, with bright specks
         // 3 to 6 pixels wide in the bottom rows, where each column seeds
         // its floor, one at the image's edge.
-        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
-            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
-            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
-        });
+        let mut img = brightening_floor();
         for (cu, cv, side) in [(60u32, 235u32, 4u32), (150, 234, 6), (230, 236, 3), (316, 235, 4)] {
             for du in 0..side {
                 for dv in 0..side.min(240 - cv) {
@@ -1019,11 +1030,7 @@ mod tests {
                 }
             }
         }
-        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
-        let b = ex.boundaries(&img).unwrap();
-        let found: Vec<usize> = (0..b.len())
-            .filter(|&u| !matches!(b[u], ColumnBoundary::Clear { .. }))
-            .collect();
+        let found = obstacle_columns(&img);
         assert!(found.is_empty(), "obstacles in columns {found:?}");
     }
 
@@ -1034,20 +1041,13 @@ mod tests {
     /// blob was taken for the floor and the floor above it for an obstacle.
     #[test]
     fn wide_specks_in_the_seed_rows_are_floor() {
-        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
-            let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
-            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
-        });
+        let mut img = brightening_floor();
         for u in 140..164 {
             for v in 228..240 {
                 img.put_pixel(u, v, image::Rgb([200, 200, 195]));
             }
         }
-        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
-        let b = ex.boundaries(&img).unwrap();
-        let found: Vec<usize> = (0..b.len())
-            .filter(|&u| !matches!(b[u], ColumnBoundary::Clear { .. }))
-            .collect();
+        let found = obstacle_columns(&img);
         assert!(found.is_empty(), "obstacles in columns {found:?}");
     }
 
