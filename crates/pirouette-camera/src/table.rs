@@ -135,6 +135,22 @@ impl FloorTable {
         r.is_finite().then_some(r as f64)
     }
 
+    /// The least change of inverse range (1/m) between two vertically
+    /// adjacent floor pixels: how finely one image row resolves range
+    /// where it resolves it worst (toward the horizon). `None` when no two
+    /// such pixels see floor.
+    pub fn finest_inverse_range_step(&self) -> Option<f64> {
+        let step = (0..self.width)
+            .flat_map(|u| (1..self.height).map(move |v| (u, v)))
+            .filter_map(|(u, v)| {
+                let (a, b) = (self.polar(u, v - 1)?, self.polar(u, v)?);
+                let d = (1.0 / a.range_m as f64 - 1.0 / b.range_m as f64).abs();
+                (d > 0.0).then_some(d)
+            })
+            .fold(f64::INFINITY, f64::min);
+        step.is_finite().then_some(step)
+    }
+
     /// The topmost row of column `u` that sees floor, if any.
     ///
     /// # Panics
@@ -216,6 +232,29 @@ mod tests {
         let bottom = (0..32).filter_map(|u| t.polar(u, 23)).map(|p| p.range_m as f64);
         let nearest = bottom.fold(f64::INFINITY, f64::min);
         assert_eq!(t.blind_range(), Some(nearest));
+    }
+
+    /// A camera one column wide sees the floor straight ahead: row `v`
+    /// looks down at `tilt + atan((v − cy) / fy)`, and its inverse range is
+    /// the tangent of that over the camera height.
+    #[test]
+    fn the_finest_inverse_range_step_is_the_smallest_change_a_row_makes() {
+        let c = PinholeModel {
+            width: 1,
+            cx: 0.0,
+            mount_forward_m: 0.0,
+            ..cam()
+        };
+        let inverse_range = |v: u32| (c.tilt_rad + ((v as f64 - c.cy) / c.fy).atan()).tan() / c.height_m;
+        let expected = (1..c.height)
+            .filter(|&v| inverse_range(v - 1) > 0.0)
+            .map(|v| inverse_range(v) - inverse_range(v - 1))
+            .fold(f64::INFINITY, f64::min);
+        let step = FloorTable::new(&c).finest_inverse_range_step().unwrap();
+        assert!(
+            (step - expected).abs() < 1e-5 * expected,
+            "{step} against {expected}"
+        );
     }
 
     #[test]
