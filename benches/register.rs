@@ -50,7 +50,7 @@ fn benches(c: &mut Criterion) {
         matched,
     } = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
     let blind_m = extractor.table().blind_range().expect("floor");
-    let (sweeps, sweep_config) = pipeline::sweeps(ds, &rops, &matched, &SweepConfig::default());
+    let (sweeps, sweep_config) = pipeline::sweeps(ds, &extractor, &rops, &matched, &SweepConfig::default());
     let truth = ds.truth_poses().expect("truth");
     let origin = truth[0].inverse();
     let truth: Vec<Pose2> = truth.iter().map(|t| origin * *t).collect();
@@ -129,7 +129,8 @@ fn benches(c: &mut Criterion) {
     group.bench_function("images_to_map", |b| {
         b.iter(|| {
             let p = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
-            let (sweeps, sweep) = pipeline::sweeps(ds, &p.rops, &p.matched, &SweepConfig::default());
+            let (sweeps, sweep) =
+                pipeline::sweeps(ds, &p.extractor, &p.rops, &p.matched, &SweepConfig::default());
             let config = MapConfig {
                 sweep,
                 ..config.clone()

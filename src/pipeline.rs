@@ -117,18 +117,28 @@ pub struct DatasetSweep {
 /// predicts, and their robust fits keep the inliers near there). The turns
 /// are verified on `matched` (one profile per frame, as `rops`: see
 /// [`sweep_profiles`]; `rops` itself where there are no others), and
-/// each sweep's 360° profile is joined from `rops`. Returns the sweeps and
-/// the settings they were assembled with.
+/// each sweep's 360° profile is joined from `rops`. The least noise a
+/// match may measure
+/// ([`pirouette_profile::matching::MatchConfig::min_inverse_range_sigma`])
+/// is a tenth of the least change of inverse range between two adjacent
+/// rows of `extractor`'s camera, in place of `config`'s: a boundary is
+/// found to about a tenth of a row. Returns the sweeps and the settings
+/// they were assembled with.
 ///
 /// # Panics
 /// When `matched` and `rops` differ in length.
 pub fn sweeps(
     ds: &Dataset,
+    extractor: &RopExtractor,
     rops: &[Rop],
     matched: &[Rop],
     config: &SweepConfig,
 ) -> (Vec<DatasetSweep>, SweepConfig) {
     assert_eq!(rops.len(), matched.len(), "one matched profile per frame");
+    let mut config = config.clone();
+    if let Some(step) = extractor.table().finest_inverse_range_step() {
+        config.matching.min_inverse_range_sigma = (step * SUB_PIXEL_ROWS) as f32;
+    }
     // Each sweep's frames, commands and profiles, gathered once for every
     // round.
     let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
@@ -159,7 +169,6 @@ pub fn sweeps(
             })
             .collect()
     };
-    let mut config = config.clone();
     let mut sweeps = assemble_all(&config);
     for _ in 0..PIVOT_ROUNDS {
         let turns = sweeps.iter().flat_map(|s| s.sweep.turns.iter().flatten());
@@ -183,6 +192,10 @@ pub fn sweeps(
     }
     (sweeps, config)
 }
+
+/// How finely a boundary is found, in image rows: the least noise
+/// [`sweeps`] lets a match measure.
+const SUB_PIXEL_ROWS: f64 = 0.1;
 
 /// The most rounds of [`sweeps`]' pivot estimate.
 const PIVOT_ROUNDS: usize = 10;

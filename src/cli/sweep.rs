@@ -73,7 +73,7 @@ impl SweepOptions {
             rops,
             matched,
         } = profiles;
-        let (sweeps, config) = pipeline::sweeps(ds, &rops, &matched, &self.config()?);
+        let (sweeps, config) = pipeline::sweeps(ds, &extractor, &rops, &matched, &self.config()?);
         Ok(SweepRun {
             extractor,
             rops,

@@ -65,7 +65,11 @@ pub struct MatchConfig {
     /// measured, and the most it may be taken to be, 1/m. Each match
     /// measures its own from the residuals of its best shift.
     pub inverse_range_sigma: f32,
-    /// The least standard deviation of inverse range a match may measure, 1/m.
+    /// The least standard deviation of inverse range a match may measure,
+    /// 1/m: what the sensor resolves at best. For a camera, a tenth of the
+    /// least change of inverse range between two adjacent image rows (a
+    /// boundary found to a tenth of a row there; the `pirouette` pipeline
+    /// sets it so from each dataset's camera).
     pub min_inverse_range_sigma: f32,
     /// Standard deviation of a bin's chromaticity share.
     pub chroma_sigma: f32,
@@ -100,7 +104,9 @@ impl Default for MatchConfig {
     /// - `min_overlap_rad`: 10°;
     /// - `inverse_range_sigma`: 0.05 /m (a range error of 0.5 cm at 0.3 m,
     ///   4 cm at 0.9 m), measured per match within 0.01-0.05 /m (0.01 is
-    ///   about a tenth of a pixel row for a camera 10 cm up);
+    ///   about a quarter of an image row for a camera 10 cm up with a
+    ///   277-pixel focal length, whose rows change inverse range by at
+    ///   least 0.036 /m);
     /// - `chroma_sigma`: 0.03;
     /// - `colour_weight`: 1;
     /// - `measure`: robust;
@@ -222,6 +228,24 @@ impl TurnShift {
     }
 }
 
+/// The significance at which a match's confidence is one half: confidence
+/// is `z / (z + CONFIDENCE_HALF_Z)` for a best match `z` standard
+/// deviations of the noise below its rivals.
+const CONFIDENCE_HALF_Z: f64 = 3.0;
+
+impl TurnEstimate {
+    /// How distinct the best match is, in standard deviations of the noise
+    /// (the `z` its confidence comes from): infinite where no rival could
+    /// be weighed against it, 0 where there was no match.
+    pub fn significance(&self) -> f64 {
+        if self.confidence >= 1.0 {
+            f64::INFINITY
+        } else {
+            CONFIDENCE_HALF_Z * self.confidence / (1.0 - self.confidence)
+        }
+    }
+}
+
 /// Verifies a turn: the angle between `before` and `after` nearest to
 /// `commanded_rad` within the window. Both profiles must have the same bin
 /// width (any width, any field of view: laser scans too).
@@ -338,7 +362,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         0.0
     };
     let confidence = if z_best.is_finite() {
-        z_best / (z_best + 3.0)
+        z_best / (z_best + CONFIDENCE_HALF_Z)
     } else {
         1.0
     };
@@ -361,17 +385,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         Evidence::Range
     };
     let refined = (config.turn_shift_m > 0.0)
-        .then(|| {
-            refine_with_shift(
-                before,
-                after,
-                k * w,
-                sigma as f64,
-                config.turn_shift_m,
-                config.pivot_m,
-                config.basin_rad,
-            )
-        })
+        .then(|| refine_with_shift(before, after, k * w, sigma as f64, config))
         .flatten();
     let turn = refined.map_or(k * w, |(turn, _)| turn);
     TurnEstimate {
@@ -801,12 +815,18 @@ mod tests {
         // and sideways), as a turn about a point 6 mm off the centre does.
         let before = cast_view(&walls, 0.0, 0.0, 10.0);
         let after = cast_view(&walls, 0.0025, -0.0018, 38.0);
-        let plain = MatchConfig {
-            turn_shift_m: 0.0,
+        // Ray-cast bins share no errors with their neighbours: each is an
+        // independent sample.
+        let config = MatchConfig {
+            correlation_rad: before.bin_width_rad,
             ..MatchConfig::default()
         };
+        let plain = MatchConfig {
+            turn_shift_m: 0.0,
+            ..config.clone()
+        };
         let alone = match_turn(&before, &after, 30f64.to_radians(), &plain);
-        let with_shift = match_turn(&before, &after, 30f64.to_radians(), &MatchConfig::default());
+        let with_shift = match_turn(&before, &after, 30f64.to_radians(), &config);
         assert!(
             !alone.fallback && !with_shift.fallback,
             "{alone:?} {with_shift:?}"

@@ -12,7 +12,8 @@ pub struct SweepConfig {
     /// Close the loop when the last view overlaps the first.
     pub close_loop: bool,
     /// Standard deviation of a verified turn, radians (weights the loop
-    /// residual's share).
+    /// residual's share), or more for a barely distinct match (see
+    /// [`SweepConfig::turn_sigma_rad`]).
     pub verified_sigma_rad: f64,
     /// Standard deviation of a commanded turn, radians (fallback turns).
     pub commanded_sigma_rad: f64,
@@ -36,6 +37,22 @@ impl Default for SweepConfig {
             verified_sigma_rad: 0.5f64.to_radians(),
             commanded_sigma_rad: 3f64.to_radians(),
             max_residual_sigmas: 3.0,
+        }
+    }
+}
+
+impl SweepConfig {
+    /// Standard deviation of a turn, radians: a command's for a fallback;
+    /// for a verified match distinct by `z` standard deviations at a
+    /// basin's distance ([`MatchConfig::basin_rad`]), the larger of
+    /// `verified_sigma_rad` and `basin / z`: a match just distinct enough
+    /// (`z` = 3) pins the turn to a third of its basin.
+    pub fn turn_sigma_rad(&self, turn: &TurnEstimate) -> f64 {
+        if turn.fallback {
+            self.commanded_sigma_rad
+        } else {
+            self.verified_sigma_rad
+                .max(self.matching.basin_rad / turn.significance())
         }
     }
 }
@@ -125,13 +142,7 @@ fn close_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], config: &SweepCo
     let first = rops.first()?;
     let view = first.len() as f64 * first.bin_width_rad;
     let max_closing = view - config.matching.min_overlap_rad;
-    let var = |t: &TurnEstimate| {
-        if t.fallback {
-            config.commanded_sigma_rad.powi(2)
-        } else {
-            config.verified_sigma_rad.powi(2)
-        }
-    };
+    let var = |t: &TurnEstimate| config.turn_sigma_rad(t).powi(2);
     // The frame nearest to coming round: estimated heading closest to 360°
     // with the closing turn inside the view.
     let mut cumulative = 0.0;
@@ -362,6 +373,41 @@ pub fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A verified turn's standard deviation: the configured one for a
+    /// clearly distinct match, a third of the basin for one just distinct
+    /// enough (significance 3, confidence 0.5), a command's for a fallback.
+    #[test]
+    fn a_barely_distinct_match_pins_its_turn_less() {
+        let config = SweepConfig::default();
+        let turn = |confidence: f64, fallback: bool| TurnEstimate {
+            turn_rad: 0.5,
+            confidence,
+            fallback,
+            evidence: if fallback {
+                Evidence::Ambiguous
+            } else {
+                Evidence::Range
+            },
+            overlap_bins: 100,
+            candidate_rad: Some(0.5),
+            shift: None,
+        };
+        let deg = |t: &TurnEstimate| config.turn_sigma_rad(t).to_degrees();
+        // Significance inverts the confidence z / (z + 3).
+        assert!((turn(0.5, false).significance() - 3.0).abs() < 1e-12);
+        assert!((turn(0.9, false).significance() - 27.0).abs() < 1e-9);
+        assert_eq!(turn(1.0, false).significance(), f64::INFINITY);
+        assert!(
+            (deg(&turn(0.5, false)) - 1.0).abs() < 1e-9,
+            "{}",
+            deg(&turn(0.5, false))
+        );
+        assert!((deg(&turn(0.6, false)) - 2.0 / 3.0).abs() < 1e-9);
+        assert!((deg(&turn(0.9, false)) - 0.5).abs() < 1e-9);
+        assert!((deg(&turn(1.0, false)) - 0.5).abs() < 1e-9);
+        assert!((deg(&turn(0.3, true)) - 3.0).abs() < 1e-9);
+    }
 
     fn scene(bearing: f64) -> f32 {
         let d = bearing.to_degrees().rem_euclid(360.0);

@@ -1,22 +1,26 @@
 //! A verified turn refined together with the small shift of the robot's
 //! centre during it.
 
-use super::TurnShift;
+use super::{MatchConfig, TurnShift};
 use crate::Rop;
 
 /// Refines a turn `theta0` together with a small shift of the robot
-/// centre during it (a Gaussian prior of `shift_sigma_m` each way, about
-/// the shift a turn about `pivot_m` makes): a robot turning in place about
-/// a point a few millimetres off its centre moves that centre, and the
-/// profiles see the parallax. Left to the turn alone,
-/// it bends the estimate on a slanted wall, where a shift toward the wall
-/// and a rotation look alike. Every finite range of `after` is moved into
-/// `before`'s frame and compared with `before` there in inverse range, in
-/// units of `sigma_inv` with the matcher's robust truncation, plus the
-/// prior; Gauss-Newton from `theta0` and the expected shift. Returns the
-/// turn and the shift (`after`'s centre in `before`'s frame) with what the
-/// profiles alone say of it, or `None` where the refinement left the basin
-/// the match verified (`basin_rad` about `theta0`).
+/// centre during it (a Gaussian prior of [`MatchConfig::turn_shift_m`]
+/// each way, about the shift a turn about [`MatchConfig::pivot_m`] makes):
+/// a robot turning in place about a point a few millimetres off its centre
+/// moves that centre, and the profiles see the parallax. Left to the turn
+/// alone, it bends the estimate on a slanted wall, where a shift toward
+/// the wall and a rotation look alike. Every finite range of `after` is
+/// moved into `before`'s frame and compared with `before` there in inverse
+/// range, in units of `sigma_inv` with the matcher's robust truncation,
+/// plus the prior; each point's cost counts as the share of an independent
+/// sample it is (bins finer than [`MatchConfig::correlation_rad`] share
+/// their errors with their neighbours, as the significance of the match
+/// counts them). Gauss-Newton from `theta0` and the expected shift.
+/// Returns the turn and the shift (`after`'s centre in `before`'s frame)
+/// with what the profiles alone say of it, or `None` where the refinement
+/// left the basin the match verified ([`MatchConfig::basin_rad`] about
+/// `theta0`).
 ///
 /// The shifts are small beside the ranges, so a point's bearing is moved
 /// to first order in the shift, around its bearing at `theta0`.
@@ -25,10 +29,10 @@ pub(super) fn refine_with_shift(
     after: &Rop,
     theta0: f64,
     sigma_inv: f64,
-    shift_sigma_m: f64,
-    pivot_m: [f64; 2],
-    basin_rad: f64,
+    config: &MatchConfig,
 ) -> Option<(f64, TurnShift)> {
+    let (shift_sigma_m, pivot_m) = (config.turn_shift_m, config.pivot_m);
+    let independent = (after.bin_width_rad / config.correlation_rad).min(1.0);
     struct Point {
         /// Bearing in `before`'s frame at `theta0`.
         bearing: f64,
@@ -138,26 +142,33 @@ pub(super) fn refine_with_shift(
     // the truncation's quadratic part), in one pass over the points.
     let linearise = |x: &[f64; 3]| -> (f64, [[f64; 3]; 3], [f64; 3]) {
         let (ex, ey) = (x[1] - expected[0], x[2] - expected[1]);
-        let mut cost = (ex * ex + ey * ey) * prior;
+        let cost = (ex * ex + ey * ey) * prior;
         let mut a = [[0.0; 3]; 3];
         let mut g = [0.0, ex * prior, ey * prior];
         a[1][1] = prior;
         a[2][2] = prior;
+        let (mut data_cost, mut data_a, mut data_g) = (0.0, [[0.0; 3]; 3], [0.0; 3]);
         for p in &points {
             let Some((e, jac)) = residual(p, x) else {
                 continue;
             };
-            cost += (e * e).min(9.0);
+            data_cost += (e * e).min(9.0);
             if e.abs() <= 3.0 {
                 for r in 0..3 {
-                    g[r] += jac[r] * e;
+                    data_g[r] += jac[r] * e;
                     for c in 0..3 {
-                        a[r][c] += jac[r] * jac[c];
+                        data_a[r][c] += jac[r] * jac[c];
                     }
                 }
             }
         }
-        (cost, a, g)
+        for r in 0..3 {
+            g[r] += independent * data_g[r];
+            for c in 0..3 {
+                a[r][c] += independent * data_a[r][c];
+            }
+        }
+        (cost + independent * data_cost, a, g)
     };
     // Gauss-Newton with step halving, until a step no longer moves the
     // turn by a microradian or the shift by a hundredth of a millimetre.
@@ -203,7 +214,7 @@ pub(super) fn refine_with_shift(
         prior_information: prior,
         information,
     };
-    (x[0].abs() <= basin_rad).then_some((theta0 + x[0], shift))
+    (x[0].abs() <= config.basin_rad).then_some((theta0 + x[0], shift))
 }
 
 /// The solution of the 3 × 3 system `a·x = b` (Cramer's rule), `None` when
