@@ -61,7 +61,9 @@ fn rendered_pirouettes_verify_turns() {
     let s = scores(&rendered("field-multi", 17));
     assert!(s.turns == 71, "{s:?}");
     assert_eq!(s.wrong_verified, 0, "{s:?}");
-    assert!(s.verified >= 0.7 && s.median_verified_error_deg <= 0.35, "{s:?}");
+    // The targets (this seed: 98.6 % verified, median 0.08°, p95 0.72°).
+    assert!(s.verified >= 0.9 && s.median_verified_error_deg <= 0.25, "{s:?}");
+    assert!(s.p95_verified_error_deg <= 1.0, "{s:?}");
     // Joined and loop-closed, sweeps end far nearer the true heading than
     // the commands do.
     assert!(
