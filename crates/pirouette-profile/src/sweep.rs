@@ -46,10 +46,13 @@ impl SweepConfig {
     /// for a verified match distinct by `z` standard deviations at a
     /// basin's distance ([`MatchConfig::basin_rad`]), the larger of
     /// `verified_sigma_rad` and `basin / z`: a match just distinct enough
-    /// (`z` = 3) pins the turn to a third of its basin.
+    /// (`z` = 3) pins the turn to a third of its basin. A turn the loop
+    /// closure fixed ([`Evidence::Loop`]) is taken as verified.
     pub fn turn_sigma_rad(&self, turn: &TurnEstimate) -> f64 {
         if turn.fallback {
             self.commanded_sigma_rad
+        } else if turn.evidence == Evidence::Loop {
+            self.verified_sigma_rad
         } else {
             self.verified_sigma_rad
                 .max(self.matching.basin_rad / turn.significance())
@@ -407,6 +410,13 @@ mod tests {
         assert!((deg(&turn(0.9, false)) - 0.5).abs() < 1e-9);
         assert!((deg(&turn(1.0, false)) - 0.5).abs() < 1e-9);
         assert!((deg(&turn(0.3, true)) - 3.0).abs() < 1e-9);
+        // A loop-fixed turn keeps its failed match's confidence.
+        let fixed = TurnEstimate {
+            fallback: false,
+            evidence: Evidence::Loop,
+            ..turn(0.05, true)
+        };
+        assert!((deg(&fixed) - 0.5).abs() < 1e-9);
     }
 
     fn scene(bearing: f64) -> f32 {
