@@ -46,6 +46,15 @@ fn image_to_rop(c: &mut Criterion) {
         group.bench_function(format!("{name}/1deg-no-texture-cue"), |b| {
             b.iter(|| ex.rop(black_box(img)).expect("sizes match"))
         });
+        // The profile sweeps are registered on (no faint steps), which
+        // sweeps and maps compute beside the default one too.
+        let comparing = VisionConfig::default()
+            .for_comparing()
+            .expect("faint steps are on by default");
+        let ex = RopExtractor::new(&camera, scene.max_range, comparing);
+        group.bench_function(format!("{name}/1deg-no-faint-steps"), |b| {
+            b.iter(|| ex.rop(black_box(img)).expect("sizes match"))
+        });
         // The boundary scan alone, beside the whole path.
         let ex = RopExtractor::new(&camera, scene.max_range, VisionConfig::default());
         group.bench_function(format!("{name}/boundaries-only"), |b| {

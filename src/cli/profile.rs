@@ -41,6 +41,15 @@ pub struct ProfileOptions {
     /// use it; turns are verified on profiles without it.
     #[arg(long, default_value_t = VisionConfig::default().texture_ratio)]
     texture_ratio: f32,
+    /// A faint step of brightness alone: more than this fraction of the
+    /// brightness tolerance within one image row, but less than the edge
+    /// fraction.
+    #[arg(long, default_value_t = VisionConfig::default().faint_step_fraction)]
+    faint_step_fraction: f32,
+    /// The most texture above a faint step, as a share of the floor's
+    /// below, that makes it an obstacle's base (0 turns faint steps off).
+    #[arg(long, default_value_t = VisionConfig::default().faint_texture_ratio)]
+    faint_texture_ratio: f32,
 }
 
 impl ProfileOptions {
@@ -63,6 +72,8 @@ impl ProfileOptions {
             noise_sigmas: self.noise_sigmas,
             edge_fraction: self.edge_fraction,
             texture_ratio: self.texture_ratio,
+            faint_step_fraction: self.faint_step_fraction,
+            faint_texture_ratio: self.faint_texture_ratio,
             filter,
             ..VisionConfig::default()
         };

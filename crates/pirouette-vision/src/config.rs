@@ -53,6 +53,17 @@ pub struct VisionConfig {
     /// share of the floor's just below it (and the run above stays that far
     /// off the floor, as a plateau); 0 turns the texture cue off.
     pub texture_ratio: f32,
+    /// Where brightness alone steps by more than this fraction of its
+    /// tolerance within one row, but not by `edge_fraction` of it (a faint
+    /// step), the step is an obstacle's base when it passes the texture
+    /// cue's tests with the tolerances scaled by this fraction and the
+    /// stricter ratio `faint_texture_ratio`. At or above `edge_fraction`
+    /// the faint cue is empty.
+    pub faint_step_fraction: f32,
+    /// The texture ratio a faint step must meet (see
+    /// `faint_step_fraction`); 0 turns the faint cue off, and so does
+    /// turning the texture cue off.
+    pub faint_texture_ratio: f32,
     /// How fast the floor reference's level follows the floor up a column,
     /// per row.
     pub adapt_rate: f32,
@@ -95,6 +106,15 @@ impl Default for VisionConfig {
     ///   but not for matching two views, where a wall seen in one and
     ///   missed in the next reads as a contradiction. Turns are therefore
     ///   verified on profiles without it ([`VisionConfig::for_matching`]);
+    /// - `faint_step_fraction`: a third (6 % with the default tolerance).
+    ///   A wall's base blurred over two rows, or a wall only a little darker
+    ///   than the floor, steps by less than half the tolerance within a
+    ///   row; the floor's own grain moves a three-pixel mean by 2-5 % a
+    ///   row, so a third is the least step that stands out of it;
+    /// - `faint_texture_ratio`: a third. A faint step says little by itself
+    ///   that a surface ends there, so the texture drop must say it: a
+    ///   third lies five standard errors of the ratio below one (as the
+    ///   noise test's five standard deviations), where 0.6 lies three;
     /// - `adapt_rate`: 0.25 per row (a memory of about four rows);
     /// - `trend_rate`: 0.1 per row: the brightness trend of the floor
     ///   (vignetting, light fall-off) changes slowly;
@@ -109,6 +129,8 @@ impl Default for VisionConfig {
             noise_sigmas: 5.0,
             edge_fraction: 0.5,
             texture_ratio: 0.6,
+            faint_step_fraction: 1.0 / 3.0,
+            faint_texture_ratio: 1.0 / 3.0,
             adapt_rate: 0.25,
             trend_rate: 0.1,
             run_fraction: 0.75,
@@ -118,9 +140,31 @@ impl Default for VisionConfig {
 }
 
 impl VisionConfig {
+    /// Whether faint steps of brightness alone are tested (see
+    /// [`VisionConfig::faint_step_fraction`]): a part of the texture cue.
+    pub fn faint_steps(&self) -> bool {
+        self.texture_ratio > 0.0
+            && self.faint_texture_ratio > 0.0
+            && self.faint_step_fraction < self.edge_fraction
+    }
+
+    /// The settings of the profiles that two views are compared on (a
+    /// sweep registered against the map of the others, the intermittent
+    /// cue of turn matching): these with faint steps off, or `None` where
+    /// they are off already. Faint steps find faint walls in stretches, as
+    /// the texture cue does but more so: evidence for a map, which fuses
+    /// every sighting, but where two views are compared a wall found in one
+    /// and missed in the other reads as a contradiction.
+    pub fn for_comparing(&self) -> Option<Self> {
+        self.faint_steps().then(|| Self {
+            faint_texture_ratio: 0.0,
+            ..self.clone()
+        })
+    }
+
     /// The settings of the profiles that verify turns: these with the
-    /// texture cue off, or `None` where it already is. Turn matching
-    /// compares two views bin by bin and needs a detector that sees the
+    /// texture cue off (its faint steps too), or `None` where it already
+    /// is. Turn matching compares two views bin by bin and needs a detector that sees the
     /// same wall in both; the texture cue finds faint walls only in
     /// stretches near the soft limit, so its walls come and go between
     /// views. Every other cue is kept.
@@ -145,12 +189,16 @@ impl VisionConfig {
         if !(unit(self.adapt_rate)
             && unit(self.trend_rate)
             && unit(self.run_fraction)
-            && unit(self.edge_fraction))
+            && unit(self.edge_fraction)
+            && unit(self.faint_step_fraction))
         {
-            return bad("adapt rate, trend rate, run fraction and edge fraction must be in (0, 1]");
+            return bad("adapt rate, trend rate, run fraction, edge fraction and faint step fraction must be in (0, 1]");
         }
         if !(self.texture_ratio >= 0.0 && self.texture_ratio < 1.0) {
             return bad("texture ratio must be in [0, 1)");
+        }
+        if !(self.faint_texture_ratio >= 0.0 && self.faint_texture_ratio < 1.0) {
+            return bad("faint texture ratio must be in [0, 1)");
         }
         if !(self.min_brightness_step >= 0.0 && self.min_chroma_step >= 0.0 && self.noise_sigmas >= 0.0) {
             return bad("brightness and chroma steps and noise multiples must be non-negative");

@@ -326,6 +326,7 @@ impl RopExtractor {
         };
         let edge_classifier = classifier.scaled(self.config.edge_fraction);
         let bright_classifier = classifier.scaled_both(self.config.edge_fraction);
+        let faint_classifier = classifier.scaled_both(self.config.faint_step_fraction);
         let grey_sigma = if self.config.texture_ratio > 0.0 {
             grey_noise_sigma(px, self.width, self.height)
         } else {
@@ -344,7 +345,7 @@ impl RopExtractor {
             lanes.step(
                 px,
                 v as usize,
-                (&classifier, &bright_classifier),
+                (&classifier, &bright_classifier, faint_classifier.brightness_step),
                 (rate, trend_rate),
                 cols.clone(),
             );
@@ -368,8 +369,9 @@ impl RopExtractor {
             }
             // Sharp steps within the floor's tolerances, of chromaticity and
             // (with the texture cue) of brightness alone where the texture
-            // drops above them: followed over their runs at once, queued
-            // only when they are an obstacle's base.
+            // drops above them, by more above faint steps: followed over
+            // their runs at once, queued only when they are an obstacle's
+            // base.
             let chroma_edges = lanes.edge_columns(cols.clone()).filter(|&u| {
                 !past_top[u] && self.edge_confirms(px, u as u32, v, lanes.coasted(u), &edge_classifier)
             });
@@ -378,9 +380,32 @@ impl RopExtractor {
                 .into_iter()
                 .flatten()
                 .filter(|&u| {
-                    !past_top[u] && self.bright_edge_confirms(px, u as u32, v, &bright_classifier, grey_sigma)
+                    !past_top[u]
+                        && self.bright_edge_confirms(
+                            px,
+                            u as u32,
+                            v,
+                            (&bright_classifier, self.config.texture_ratio),
+                            grey_sigma,
+                        )
                 });
-            for u in chroma_edges.chain(bright_edges) {
+            let faint_edges = self
+                .config
+                .faint_steps()
+                .then(|| lanes.faint_edge_columns(cols.clone()))
+                .into_iter()
+                .flatten()
+                .filter(|&u| {
+                    !past_top[u]
+                        && self.bright_edge_confirms(
+                            px,
+                            u as u32,
+                            v,
+                            (&faint_classifier, self.config.faint_texture_ratio),
+                            grey_sigma,
+                        )
+                });
+            for u in chroma_edges.chain(bright_edges).chain(faint_edges) {
                 candidates.push(
                     u,
                     Candidate {
@@ -512,16 +537,18 @@ mod tests {
         let (rate, trend_rate) = (ex.config.adapt_rate, ex.config.trend_rate);
         let edge = classifier.scaled(ex.config.edge_fraction);
         let both = classifier.scaled_both(ex.config.edge_fraction);
+        let faint = classifier.scaled_both(ex.config.faint_step_fraction);
         let grey_sigma = grey_noise_sigma(px, m, n);
         let mut track = FloorTrack { level, trend };
-        let (mut close_below, mut steady_below) = (true, true);
+        let (mut close_below, mut steady_below, mut faint_below) = (true, true, true);
         let mut v = n - seed_rows - 1;
         loop {
             let p = pix(v);
             let pred = track.predict();
-            let masks = classifier.masks(&p, &pred, &both);
+            let masks = classifier.masks(&p, &pred, &both, faint.brightness_step);
             let (floor, close) = (masks.floor != 0, masks.close != 0);
             let steady = close && masks.steady != 0;
+            let faint_steady = close && masks.faint_steady != 0;
             if !floor {
                 let run = ex.run_rows[(v * m + u) as usize].max(1) as u32;
                 let lo = (v + 1).saturating_sub(run);
@@ -550,13 +577,21 @@ mod tests {
                 && !steady
                 && steady_below
                 && ex.config.texture_ratio > 0.0
-                && ex.bright_edge_confirms(px, u, v, &both, grey_sigma)
+                && ex.bright_edge_confirms(px, u, v, (&both, ex.config.texture_ratio), grey_sigma)
+            {
+                return ex.refine(px, u, v, pred, track.trend);
+            } else if steady
+                && !faint_steady
+                && faint_below
+                && ex.config.faint_steps()
+                && ex.bright_edge_confirms(px, u, v, (&faint, ex.config.faint_texture_ratio), grey_sigma)
             {
                 return ex.refine(px, u, v, pred, track.trend);
             }
             track.step(&p, floor, rate, trend_rate);
             close_below = close;
             steady_below = steady;
+            faint_below = faint_steady;
             if v == top {
                 return ColumnBoundary::Clear { top_row: top };
             }
@@ -568,13 +603,15 @@ mod tests {
     /// own finds, on images with a blotchy, grained floor that brightens
     /// upwards, noise, specks, and walls and boxes of many heights and
     /// contrasts (some close to the floor's colour, some smooth and of the
-    /// floor's own hue), with the texture cue off and on.
+    /// floor's own hue), with the texture cue off, on without its faint
+    /// steps, and on.
     #[test]
     fn lock_step_scan_equals_the_column_by_column_oracle() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut rand = move || rng.random::<f32>();
         let mut compared = 0;
         let mut texture_found = 0;
+        let mut faint_found = 0;
         for width in [320u32, 75] {
             let c = PinholeModel {
                 width,
@@ -582,6 +619,14 @@ mod tests {
                 ..cam()
             };
             let textured = RopExtractor::new(&c, 0.9, VisionConfig::default());
+            let no_faint = RopExtractor::new(
+                &c,
+                0.9,
+                VisionConfig {
+                    faint_texture_ratio: 0.0,
+                    ..VisionConfig::default()
+                },
+            );
             let plain = RopExtractor::new(
                 &c,
                 0.9,
@@ -634,7 +679,8 @@ mod tests {
                 let px = img.as_raw();
                 let sigma = noise_sigma(px, width, 240);
                 let without = plain.boundaries(&img).unwrap();
-                for ex in [&plain, &textured] {
+                let strong_only = no_faint.boundaries(&img).unwrap();
+                for ex in [&plain, &no_faint, &textured] {
                     let lock_step = ex.boundaries(&img).unwrap();
                     let seeds = ex.seeds(px, &ex.classifier(sigma));
                     for (u, found) in lock_step.iter().enumerate() {
@@ -650,13 +696,9 @@ mod tests {
                         .filter(|b| matches!(b, ColumnBoundary::Obstacle { .. }))
                         .count();
                 }
-                texture_found += textured
-                    .boundaries(&img)
-                    .unwrap()
-                    .iter()
-                    .zip(&without)
-                    .filter(|(a, b)| a != b)
-                    .count();
+                let with = textured.boundaries(&img).unwrap();
+                texture_found += with.iter().zip(&without).filter(|(a, b)| a != b).count();
+                faint_found += with.iter().zip(&strong_only).filter(|(a, b)| a != b).count();
             }
         }
         assert!(compared > 1000, "only {compared} obstacle columns compared");
@@ -664,6 +706,7 @@ mod tests {
             texture_found > 50,
             "the texture cue changed only {texture_found} columns"
         );
+        assert!(faint_found > 10, "faint steps changed only {faint_found} columns");
     }
 
     /// Columns are scanned side by side in blocks; each must find its own
@@ -794,43 +837,50 @@ mod tests {
         );
     }
 
-    /// A smooth wall of the floor's own hue, 14 % darker, over a grained
-    /// floor: no colour test can tell it from shade, but its base is found
-    /// by the texture cue and only by it. Not in every column: where the
-    /// grain just below softens the step, it is no longer sharp within one
-    /// row (the cue's known weakness, a wall seen in stretches); never
-    /// anywhere but at the base. The same step with the floor's grain
-    /// above it (a seam, a tonal patch) stays floor but in a few columns.
-    #[test]
-    fn texture_cue_finds_smooth_walls_of_the_floors_hue() {
+    /// A grained floor (cells of 2 × 2 pixels, ±8 %) meeting at row 60
+    /// either a smooth surface of the floor's own hue, `shade` times as
+    /// bright, or (`grained_above`) the same shade with the floor's grain
+    /// on it (a seam, a tonal patch).
+    fn shaded_floor(shade: f32, grained_above: bool, grain: f32) -> image::RgbImage {
         let mut rng = ChaCha8Rng::seed_from_u64(99);
         let grain: Vec<f32> = (0..160 * 120)
-            .map(|_| 0.92 + 0.16 * rng.random::<f32>())
+            .map(|_| 1.0 - grain + 2.0 * grain * rng.random::<f32>())
             .collect();
         let noise: Vec<f32> = (0..320 * 240)
             .map(|_| 4.0 * (rng.random::<f32>() - 0.5))
             .collect();
         let floor = [100.0f32, 95.0, 85.0];
-        let image = |grained_above: bool| {
-            image::RgbImage::from_fn(320, 240, |u, v| {
-                let g = grain[(v / 2 * 160 + u / 2) as usize];
-                let (shade, g) = if v < 60 {
-                    (0.86, if grained_above { g } else { 1.0 })
-                } else {
-                    (1.0, g)
-                };
-                let n = noise[(v * 320 + u) as usize];
-                image::Rgb(floor.map(|c| (c * shade * g + n).round().clamp(0.0, 255.0) as u8))
-            })
-        };
+        image::RgbImage::from_fn(320, 240, |u, v| {
+            let g = grain[(v / 2 * 160 + u / 2) as usize];
+            let (shade, g) = if v < 60 {
+                (shade, if grained_above { g } else { 1.0 })
+            } else {
+                (1.0, g)
+            };
+            let n = noise[(v * 320 + u) as usize];
+            image::Rgb(floor.map(|c| (c * shade * g + n).round().clamp(0.0, 255.0) as u8))
+        })
+    }
+
+    /// A smooth wall of the floor's own hue, 14 % darker, over a grained
+    /// floor: no colour test can tell it from shade, but its base is found
+    /// by the texture cue and only by it. Not in every column: where the
+    /// grain just below softens the step, it is no longer sharp within one
+    /// row (the cue's known weakness, a wall seen in stretches); never
+    /// anywhere but at the base, or one cell of grain below it where a dark
+    /// cell there steps faintly into the wall. The same step with the
+    /// floor's grain above it (a seam, a tonal patch) stays floor but in a
+    /// few columns.
+    #[test]
+    fn texture_cue_finds_smooth_walls_of_the_floors_hue() {
         let scan = |img: &image::RgbImage, texture_ratio: f32| {
             let config = VisionConfig {
                 texture_ratio,
                 ..VisionConfig::default()
             };
-            base_and_clear(config, img, 59.5, 1.5)
+            base_and_clear(config, img, 60.0, 2.0)
         };
-        let wall = image(false);
+        let wall = shaded_floor(0.86, false, 0.08);
         let (found, clear) = scan(&wall, 0.6);
         assert!(found >= 240, "the wall's base in {found} of 320 columns");
         assert_eq!(found + clear, 320, "a boundary away from the wall's base");
@@ -841,8 +891,41 @@ mod tests {
         );
         // Each column's windows hold about 30 independent samples a side:
         // by chance a few columns of a seam still pass (11 of 320 here).
-        let (seam, _) = scan(&image(true), 0.6);
+        let (seam, _) = scan(&shaded_floor(0.86, true, 0.08), 0.6);
         assert!(seam <= 16, "a step with grain on both sides: {seam} columns");
+    }
+
+    /// A smooth wall only 8 % darker than a finely grained floor (±4 %)
+    /// steps by less than half the brightness tolerance: the faint cue
+    /// finds its base (in 186 of 320 columns here, 7 without it) where the
+    /// texture above drops to a third of the floor's. The same step with
+    /// the grain on both sides stays floor but in a few columns (9 here).
+    #[test]
+    fn faint_steps_of_smooth_walls_are_found_by_their_texture() {
+        let scan = |img: &image::RgbImage, faint_texture_ratio: f32| {
+            let config = VisionConfig {
+                faint_texture_ratio,
+                ..VisionConfig::default()
+            };
+            base_and_clear(config, img, 60.0, 2.0)
+        };
+        let wall = shaded_floor(0.92, false, 0.04);
+        let (found, clear) = scan(&wall, VisionConfig::default().faint_texture_ratio);
+        assert!(found >= 150, "the wall's base in {found} of 320 columns");
+        assert_eq!(found + clear, 320, "a boundary away from the wall's base");
+        let (without, _) = scan(&wall, 0.0);
+        assert!(
+            without <= 10,
+            "without faint steps the wall is floor: {without} columns"
+        );
+        let (seam, _) = scan(
+            &shaded_floor(0.92, true, 0.04),
+            VisionConfig::default().faint_texture_ratio,
+        );
+        assert!(
+            seam <= 14,
+            "a faint step with grain on both sides: {seam} columns"
+        );
     }
 
     /// The profiles turns are verified on: every setting kept but the

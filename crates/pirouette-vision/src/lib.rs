@@ -20,9 +20,12 @@
 //! chromaticity is enough ([`VisionConfig::edge_fraction`]): a wall close to
 //! the floor's colour still has a sharp base. Where brightness alone steps
 //! sharply and the floor's grain stops above the step, the step is a
-//! smooth wall's base ([`VisionConfig::texture_ratio`]); that cue finds
+//! smooth wall's base ([`VisionConfig::texture_ratio`]); a fainter step,
+//! down to a third of the brightness tolerance, counts where the texture
+//! drops further ([`VisionConfig::faint_step_fraction`]). These cues find
 //! faint walls only in stretches, so turns are matched on profiles without
-//! it ([`VisionConfig::for_matching`]).
+//! them ([`VisionConfig::for_matching`]) and sweeps are registered on
+//! profiles without the faint steps ([`VisionConfig::for_comparing`]).
 //!
 //! ```
 //! use pirouette_camera::PinholeModel;

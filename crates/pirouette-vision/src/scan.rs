@@ -39,17 +39,19 @@ impl Classifier {
     /// that a loop over columns vectorises.
     #[inline(always)]
     pub fn floor_mask(&self, p: &[f32; 3], q: &[f32; 3]) -> u32 {
-        self.masks(p, q, self).floor
+        self.masks(p, q, self, self.brightness_step).floor
     }
 
-    /// [`Classifier::floor_mask`] and, sharing its work, two tests with
+    /// [`Classifier::floor_mask`] and, sharing its work, three tests with
     /// tighter tolerances, each as 1 or 0: `close`, the same test with
     /// chromaticity tolerance `edge.chroma_step` (that of
     /// [`Classifier::scaled`]); `steady`, whether the brightness step also
     /// lies within `edge.brightness_step` (that of
-    /// [`Classifier::scaled_both`]). The noise allowance is the same in all.
+    /// [`Classifier::scaled_both`]); `faint_steady`, whether it lies within
+    /// the relative brightness tolerance `faint_step`. The noise allowance
+    /// is the same in all.
     #[inline(always)]
-    pub fn masks(&self, p: &[f32; 3], q: &[f32; 3], edge: &Classifier) -> Masks {
+    pub fn masks(&self, p: &[f32; 3], q: &[f32; 3], edge: &Classifier, faint_step: f32) -> Masks {
         let sum_p = p[0] + p[1] + p[2];
         let sum_q = max0(q[0] + q[1] + q[2], 0.0);
         let db = sum_p - sum_q;
@@ -58,6 +60,8 @@ impl Classifier {
         let inside = (db * db <= tb2) as u32;
         let tb_edge = max0(edge.brightness_step * sum_q, self.noise * SQRT_3);
         let steady = (db * db <= tb_edge * tb_edge) as u32;
+        let tb_faint = max0(faint_step * sum_q, self.noise * SQRT_3);
+        let faint_steady = (db * db <= tb_faint * tb_faint) as u32;
         // Room left inside the ellipse for the chromaticity term.
         let room = 1.0 - db * db / tb2;
         let b = if sum_q > 0.0 { sum_p / sum_q } else { 1.0 };
@@ -76,6 +80,7 @@ impl Classifier {
             floor: inside & c0.0 & c1.0 & c2.0,
             close: inside & c0.1 & c1.1 & c2.1,
             steady,
+            faint_steady,
         }
     }
 }
@@ -89,6 +94,8 @@ pub(crate) struct Masks {
     pub close: u32,
     /// The brightness step within the edge test's brightness tolerance.
     pub steady: u32,
+    /// The brightness step within the faint step's tolerance.
+    pub faint_steady: u32,
 }
 
 impl Classifier {
@@ -219,6 +226,13 @@ struct Block {
     /// pixel below it, its brightness not steady: a sharp step of
     /// brightness alone.
     bright_edge: [u8; BLOCK],
+    /// 1 where the pixel of the row last classified was close to the floor
+    /// and its brightness within the faint step's tolerance.
+    faint_steady: [u8; BLOCK],
+    /// 1 where an alive column's pixel is close to the floor and its
+    /// brightness steady, but, unlike the pixel below it, not within the
+    /// faint step's tolerance: a faint sharp step of brightness alone.
+    faint_edge: [u8; BLOCK],
     /// The tracks' trend before the current row's update.
     trend_before: [[f32; BLOCK]; 3],
     /// Rows found not floor so far, the current one included.
@@ -267,6 +281,7 @@ impl Lanes {
         // The seed below the first row scanned is floor.
         block.close[i] = 1;
         block.steady[i] = 1;
+        block.faint_steady[i] = 1;
     }
 
     /// Stops scanning column `u`.
@@ -323,12 +338,14 @@ impl Lanes {
     /// the blocks holding `cols`: columns whose pixel is floor take it in
     /// (Holt's update of level and trend), the others coast along their
     /// trend. Afterwards [`Lanes::off_columns`] lists the alive columns
-    /// whose pixel is not floor.
+    /// whose pixel is not floor. `classifiers` are the floor test, the edge
+    /// tests' (see [`Classifier::masks`]) and the faint step's relative
+    /// brightness tolerance.
     pub fn step(
         &mut self,
         px: &[u8],
         v: usize,
-        classifiers: (&Classifier, &Classifier),
+        classifiers: (&Classifier, &Classifier, f32),
         rates: (f32, f32),
         cols: std::ops::Range<usize>,
     ) {
@@ -368,6 +385,13 @@ impl Lanes {
     /// tolerance, left to right.
     pub fn bright_edge_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
         self.flagged(cols, |b| &b.bright_edge)
+    }
+
+    /// The columns in `cols` where [`Lanes::step`] found a faint sharp step
+    /// of brightness alone (beyond the faint step's tolerance, within the
+    /// edge test's), left to right.
+    pub fn faint_edge_columns(&self, cols: std::ops::Range<usize>) -> impl Iterator<Item = usize> + '_ {
+        self.flagged(cols, |b| &b.faint_edge)
     }
 
     fn flagged(
@@ -451,7 +475,7 @@ fn step_blocks(
     blocks: &mut [Block],
     sums: &[u16],
     first: usize,
-    (classifier, edge_classifier): (&Classifier, &Classifier),
+    (classifier, edge_classifier, faint_step): (&Classifier, &Classifier, f32),
     (rate, trend_rate): (f32, f32),
 ) {
     let lanes = sums.len() / 3;
@@ -460,6 +484,7 @@ fn step_blocks(
             block.off = [0; BLOCK];
             block.edge = [0; BLOCK];
             block.bright_edge = [0; BLOCK];
+            block.faint_edge = [0; BLOCK];
             continue;
         }
         let base = (first + k) * BLOCK;
@@ -478,6 +503,7 @@ fn step_blocks(
         let mut floor = [0u32; BLOCK];
         let mut close = [0u32; BLOCK];
         let mut steady = [0u32; BLOCK];
+        let mut faint_steady = [0u32; BLOCK];
         for i in 0..BLOCK {
             let q = [
                 block.predicted[0][i],
@@ -485,8 +511,9 @@ fn step_blocks(
                 block.predicted[2][i],
             ];
             let p = [pixel[0][i], pixel[1][i], pixel[2][i]];
-            let masks = classifier.masks(&p, &q, edge_classifier);
-            (floor[i], close[i], steady[i]) = (masks.floor, masks.close, masks.steady);
+            let masks = classifier.masks(&p, &q, edge_classifier, faint_step);
+            (floor[i], close[i], steady[i], faint_steady[i]) =
+                (masks.floor, masks.close, masks.steady, masks.faint_steady);
         }
         for i in 0..BLOCK {
             block.off[i] = (floor[i] == 0) as u8 & block.alive[i];
@@ -497,6 +524,14 @@ fn step_blocks(
             block.bright_edge[i] =
                 (close[i] as u8) & (steady[i] == 0) as u8 & block.steady[i] & block.alive[i];
             block.steady[i] = steady_close;
+        }
+        // (A loop of its own: in the one above, the compiler leaves the
+        // flags scalar.)
+        for i in 0..BLOCK {
+            let faint_close = (close[i] & faint_steady[i]) as u8;
+            block.faint_edge[i] =
+                block.steady[i] & (faint_close == 0) as u8 & block.faint_steady[i] & block.alive[i];
+            block.faint_steady[i] = faint_close;
         }
         block.trend_before = block.trend;
         // Weights 1 (take the pixel in) or 0 (coast): the choice as

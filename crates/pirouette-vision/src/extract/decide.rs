@@ -66,14 +66,17 @@ impl RopExtractor {
     }
 
     /// Whether a sharp step of brightness alone at row `v` of column `u` is
-    /// an obstacle's base. The floor's level is the median of the rows
-    /// below the step, as they are: not the track's extrapolation, which a
+    /// an obstacle's base, judged with the tolerances of `both` and the
+    /// texture ratio `ratio` (`(both, ratio)`). The floor's level is the
+    /// median of the rows below the step, as they are: not the track's extrapolation, which a
     /// speck's flank bends, and not a mean, which a speck's glow lifts (a
     /// wall's base is a step between two plateaus; a speck's top edge only
     /// the far side of a peak). The run above must stay off that level
     /// with both tolerances scaled (`both`) as an obstacle's would, and the
     /// column itself must show it; and the texture above the step must
-    /// drop below [`VisionConfig::texture_ratio`](crate::VisionConfig::texture_ratio) of the floor's below it,
+    /// drop below `ratio` of the floor's below it
+    /// ([`VisionConfig::texture_ratio`](crate::VisionConfig::texture_ratio), or for a faint step
+    /// [`VisionConfig::faint_texture_ratio`](crate::VisionConfig::faint_texture_ratio)),
     /// both counted beyond the sensor noise (`grey_sigma`, of one pixel's
     /// grey), and the floor's must stand out of that noise.
     pub(super) fn bright_edge_confirms(
@@ -81,7 +84,7 @@ impl RopExtractor {
         px: &[u8],
         u: u32,
         v: u32,
-        both: &Classifier,
+        (both, ratio): (&Classifier, f32),
         grey_sigma: f32,
     ) -> bool {
         let (m, n) = (self.width, self.height);
@@ -103,12 +106,18 @@ impl RopExtractor {
         };
         let run = self.run_rows[(v * m + u) as usize].max(1) as u32;
         let lo = (v + 1).saturating_sub(run);
-        let off = (lo..=v)
-            .filter(|&w| !both.is_floor(&smoothed(px, m, u, w), &floor))
-            .count();
-        if (off as f32) < self.config.run_fraction * (v - lo + 1) as f32
-            || !self.column_confirms(px, u, v, &floor, both)
-        {
+        // Rows off the floor, counted up from the step until the run can
+        // no longer have enough of them.
+        let needed = self.config.run_fraction * (v - lo + 1) as f32;
+        let (mut off, mut left) = (0u32, v - lo + 1);
+        for w in (lo..=v).rev() {
+            if ((off + left) as f32) < needed {
+                break;
+            }
+            left -= 1;
+            off += !both.is_floor(&smoothed(px, m, u, w), &floor) as u32;
+        }
+        if (off as f32) < needed || !self.column_confirms(px, u, v, &floor, both) {
             return false;
         }
         // The run is a plateau too: its rows keep to their own median
@@ -135,13 +144,19 @@ impl RopExtractor {
         else {
             return false;
         };
+        let s_above = above.beyond_noise(grey_sigma);
+        // The lower window can only lessen the floor's texture: a step the
+        // nearer one rejects is rejected.
+        if s_above > ratio * below.beyond_noise(grey_sigma) {
+            return false;
+        }
         if let Some(t) = texture_energy(px, m, u, lower) {
             if t.beyond_noise(grey_sigma) < below.beyond_noise(grey_sigma) {
                 below = t;
             }
         }
-        let (s_above, s_below) = (above.beyond_noise(grey_sigma), below.beyond_noise(grey_sigma));
-        s_below >= below.noise(grey_sigma) && s_above <= self.config.texture_ratio * s_below
+        let s_below = below.beyond_noise(grey_sigma);
+        s_below >= below.noise(grey_sigma) && s_above <= ratio * s_below
     }
 
     /// Whether the raw pixels of column `u` just above row `v` (two of the

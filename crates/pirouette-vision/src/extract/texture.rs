@@ -75,9 +75,9 @@ pub(super) fn texture_energy(px: &[u8], width: u32, u: u32, rows: std::ops::Rang
         let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
         // Prefix sums of grey (channel sums) over the window's columns.
         let mut prefix = [0u32; SPAN + 1];
-        for k in 0..SPAN {
-            let i = (first + k) * 3;
-            prefix[k + 1] = prefix[k] + row[i] as u32 + row[i + 1] as u32 + row[i + 2] as u32;
+        let window = &row[first * 3..(first + SPAN) * 3];
+        for (k, p) in window.chunks_exact(3).enumerate() {
+            prefix[k + 1] = prefix[k] + p[0] as u32 + p[1] as u32 + p[2] as u32;
         }
         for c in half..half + CENTRES {
             let narrow = (prefix[c + 2] - prefix[c - 1]) as f32 / 3.0;
