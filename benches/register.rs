@@ -47,6 +47,7 @@ fn benches(c: &mut Criterion) {
     let pipeline::SweepProfiles {
         extractor,
         rops,
+        compared,
         matched,
     } = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
     let blind_m = extractor.table().blind_range().expect("floor");
@@ -135,11 +136,31 @@ fn benches(c: &mut Criterion) {
                 sweep,
                 ..config.clone()
             };
-            build_map(&ds.manifest.frames, &p.rops, &sweeps, blind_m, &config, || {}).expect("map")
+            build_map(
+                &ds.manifest.frames,
+                &p.rops,
+                &p.compared,
+                &sweeps,
+                blind_m,
+                &config,
+                || {},
+            )
+            .expect("map")
         })
     });
     group.bench_function("build_map_only", |b| {
-        b.iter(|| build_map(&ds.manifest.frames, &rops, &sweeps, blind_m, &config, || {}).expect("map"))
+        b.iter(|| {
+            build_map(
+                &ds.manifest.frames,
+                &rops,
+                &compared,
+                &sweeps,
+                blind_m,
+                &config,
+                || {},
+            )
+            .expect("map")
+        })
     });
     group.finish();
 }

@@ -19,78 +19,104 @@ pub fn extractor(ds: &Dataset, model: Option<ModelKind>, config: VisionConfig) -
 /// The profile of every frame, in capture order (frames in parallel).
 /// `progress` is called once per finished frame.
 pub fn profiles(ds: &Dataset, extractor: &RopExtractor, progress: impl Fn() + Sync) -> Result<Vec<Rop>> {
-    Ok(profiles_and_matched(ds, extractor, None, progress)?.0)
+    let mut sets = profiles_with(ds, &[extractor], progress)?;
+    Ok(sets.pop().expect("one extractor"))
 }
 
-/// The profile of every frame as [`profiles`] gives it, and, where
-/// `matching` is given, the profile each frame's turn is verified on (see
-/// [`VisionConfig::for_matching`]), from the same image read once.
-pub fn profiles_and_matched(
+/// The profile of every frame by each of `extractors` (one list per
+/// extractor, in capture order), each image read once.
+fn profiles_with(
     ds: &Dataset,
-    extractor: &RopExtractor,
-    matching: Option<&RopExtractor>,
+    extractors: &[&RopExtractor],
     progress: impl Fn() + Sync,
-) -> Result<(Vec<Rop>, Option<Vec<Rop>>)> {
-    let pairs: Vec<(Rop, Option<Rop>)> = (0..ds.manifest.frames.len())
+) -> Result<Vec<Vec<Rop>>> {
+    let frames: Vec<Vec<Rop>> = (0..ds.manifest.frames.len())
         .into_par_iter()
         .map(|i| {
             let img = ds.load_image(i)?;
             let name = || ds.image_path(i).display().to_string();
-            let rop = extractor.rop(&img).with_context(name)?;
-            let matched = matching.map(|m| m.rop(&img)).transpose().with_context(name)?;
+            let rops = extractors
+                .iter()
+                .map(|e| e.rop(&img).with_context(name))
+                .collect::<Result<Vec<Rop>>>()?;
             progress();
-            Ok((rop, matched))
+            Ok(rops)
         })
         .collect::<Result<_>>()?;
-    let (rops, matched): (Vec<Rop>, Vec<Option<Rop>>) = pairs.into_iter().unzip();
-    let matched = matching
-        .is_some()
-        .then(|| matched.into_iter().flatten().collect());
-    Ok((rops, matched))
+    let mut sets: Vec<Vec<Rop>> = extractors
+        .iter()
+        .map(|_| Vec::with_capacity(frames.len()))
+        .collect();
+    for rops in frames {
+        for (set, rop) in sets.iter_mut().zip(rops) {
+            set.push(rop);
+        }
+    }
+    Ok(sets)
 }
 
 /// Every frame's profiles for sweeps and maps (see [`sweep_profiles`]).
 pub struct SweepProfiles {
     /// The extractor of `rops` (camera tables, settings).
     pub extractor: RopExtractor,
-    /// One profile per frame, as the settings give it: for the map.
+    /// One profile per frame, as the settings give it: for the map's grid.
     pub rops: Vec<Rop>,
+    /// One profile per frame for comparing views (a sweep registered
+    /// against the map of the others): the settings'
+    /// [`VisionConfig::for_comparing`]; a copy of `rops` where those are
+    /// the same.
+    pub compared: Vec<Rop>,
     /// One profile per frame to verify turns on: the settings'
-    /// [`VisionConfig::for_matching`], with the ranges of `rops` as the
-    /// intermittent cue's (`Rop::intermittent_m`); a copy of `rops` where
-    /// the matching settings are the same.
+    /// [`VisionConfig::for_matching`], with the ranges of `compared` as
+    /// the intermittent cue's (`Rop::intermittent_m`); a copy of
+    /// `compared` where the matching settings are the same.
     pub matched: Vec<Rop>,
 }
 
-/// Profiles every frame with `config` for the map and with its matching
-/// settings for the turns, each image read once; `progress` is called once
-/// per finished frame.
+/// Profiles every frame with `config` for the map, with its comparing
+/// settings for registration and with its matching settings for the turns,
+/// each image read once; `progress` is called once per finished frame.
 pub fn sweep_profiles(
     ds: &Dataset,
     model: Option<ModelKind>,
     config: VisionConfig,
     progress: impl Fn() + Sync,
 ) -> Result<SweepProfiles> {
+    let comparing = config
+        .for_comparing()
+        .map(|c| extractor(ds, model, c))
+        .transpose()?;
     let matching = config
         .for_matching()
         .map(|c| extractor(ds, model, c))
         .transpose()?;
     let extractor = extractor(ds, model, config)?;
-    let (rops, matched) = profiles_and_matched(ds, &extractor, matching.as_ref(), progress)?;
+    let extractors: Vec<&RopExtractor> = [Some(&extractor), comparing.as_ref(), matching.as_ref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    let mut sets = profiles_with(ds, &extractors, progress)?.into_iter();
+    let rops = sets.next().expect("the map's extractor");
+    let compared = match comparing {
+        Some(_) => sets.next().expect("the comparing extractor"),
+        None => rops.clone(),
+    };
     // The cue left out of the matched profiles is an intermittent one:
     // its ranges go with them, compared only where both views have one.
-    let matched = match matched {
-        Some(mut matched) => {
-            for (m, r) in matched.iter_mut().zip(&rops) {
+    let matched = match matching {
+        Some(_) => {
+            let mut matched = sets.next().expect("the matching extractor");
+            for (m, r) in matched.iter_mut().zip(&compared) {
                 m.intermittent_m = r.range_m.clone();
             }
             matched
         }
-        None => rops.clone(),
+        None => compared.clone(),
     };
     Ok(SweepProfiles {
         extractor,
         rops,
+        compared,
         matched,
     })
 }

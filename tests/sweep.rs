@@ -103,10 +103,11 @@ fn sweep_json_follows_the_contract() {
 }
 
 /// Turns are verified on the profiles without the texture cue, which
-/// carry the cue's ranges as an intermittent cue's, and each sweep's 360°
-/// profile is joined from the cue's profiles: the same turns as assembling
-/// the matching profiles alone, a different joined profile where the cue
-/// found walls.
+/// carry the ranges of the profiles without its faint steps (those
+/// registration compares) as an intermittent cue's, and each sweep's 360°
+/// profile is joined from the profiles with every cue: the same turns as
+/// assembling the matching profiles alone, a different joined profile where
+/// the cues found walls.
 #[test]
 fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
     let ds = Dataset::open(&rendered("room-multi", 17)).unwrap();
@@ -115,18 +116,27 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
         ..VisionConfig::default()
     };
     let p = pipeline::sweep_profiles(&ds, None, config.clone(), || {}).unwrap();
-    let plain = pipeline::extractor(&ds, None, config.for_matching().unwrap()).unwrap();
-    let again = pipeline::profiles(&ds, &plain, || {}).unwrap();
-    assert!(p.matched.iter().zip(&again).all(|(a, b)| same(a, b)));
+    let profiles_with = |c: VisionConfig| {
+        let extractor = pipeline::extractor(&ds, None, c).unwrap();
+        pipeline::profiles(&ds, &extractor, || {}).unwrap()
+    };
+    let plain = profiles_with(config.for_matching().unwrap());
+    assert!(p.matched.iter().zip(&plain).all(|(a, b)| same(a, b)));
+    let compared = profiles_with(config.for_comparing().unwrap());
+    assert!(p.compared.iter().zip(&compared).all(|(a, b)| same(a, b)));
     let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
     assert!(p
         .matched
         .iter()
-        .zip(&p.rops)
+        .zip(&p.compared)
         .all(|(m, r)| bits(&m.intermittent_m) == bits(&r.range_m)));
     assert!(
-        p.rops.iter().zip(&p.matched).any(|(a, b)| !same(a, b)),
-        "the cue found nothing on this render"
+        p.compared.iter().zip(&p.matched).any(|(a, b)| !same(a, b)),
+        "the texture cue found nothing on this render"
+    );
+    assert!(
+        p.rops.iter().zip(&p.compared).any(|(a, b)| !same(a, b)),
+        "faint steps found nothing on this render"
     );
     let (both, _) = pipeline::sweeps(&ds, &p.extractor, &p.rops, &p.matched, &SweepConfig::default());
     let (alone, _) = pipeline::sweeps(&ds, &p.extractor, &p.matched, &p.matched, &SweepConfig::default());

@@ -145,6 +145,7 @@ pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
     let map = build_map(
         &ds.manifest.frames,
         &run.rops,
+        &run.compared,
         &run.sweeps,
         profiled.blind_m,
         &profiled.config,

@@ -71,12 +71,14 @@ impl SweepOptions {
         let pipeline::SweepProfiles {
             extractor,
             rops,
+            compared,
             matched,
         } = profiles;
         let (sweeps, config) = pipeline::sweeps(ds, &extractor, &rops, &matched, &self.config()?);
         Ok(SweepRun {
             extractor,
             rops,
+            compared,
             sweeps,
             config,
         })
@@ -89,6 +91,9 @@ pub struct SweepRun {
     pub extractor: pirouette::vision::RopExtractor,
     /// One profile per frame.
     pub rops: Vec<pirouette::profile::Rop>,
+    /// One profile per frame for comparing views (see
+    /// [`pipeline::SweepProfiles::compared`]).
+    pub compared: Vec<pirouette::profile::Rop>,
     /// The sweeps assembled.
     pub sweeps: Vec<DatasetSweep>,
     /// The sweep settings used.

@@ -348,16 +348,25 @@ fn refine_pass(
 /// pair's match and the forward moves, and placed once more against the
 /// map of the others. The map frame is set last: the first frame is
 /// `(0, 0, 0)`.
+///
+/// Registration compares `compared`, the grid fuses `rops` (one profile
+/// per frame each; see [`crate::pipeline::SweepProfiles`]).
 pub fn build_map(
     frames: &[FrameSpec],
     rops: &[Rop],
+    compared: &[Rop],
     sweeps: &[DatasetSweep],
     blind_m: f64,
     config: &MapConfig,
     progress: impl Fn(),
 ) -> Result<MapRun> {
-    if rops.len() != frames.len() {
-        bail!("{} profiles for {} frames", rops.len(), frames.len());
+    if rops.len() != frames.len() || compared.len() != frames.len() {
+        bail!(
+            "{} and {} profiles for {} frames",
+            rops.len(),
+            compared.len(),
+            frames.len()
+        );
     }
     let mut placed: Vec<Placed> = Vec::with_capacity(sweeps.len());
     let mut inserted: Vec<(usize, Pose2)> = Vec::new();
@@ -368,8 +377,8 @@ pub fn build_map(
                 let prior = forward_prior(&sweeps[s - 1], prev, frames[sweep.frames[0]].motion, config);
                 let mut state = Placed::new(sweep, prior.mean, config.sweep.matching.pivot_m);
                 state.prior = Some(prior);
-                let field = field_of(&inserted, rops, blind_m, config)?;
-                place_sweep(&mut state, sweep, rops, &field, &prior, config)?;
+                let field = field_of(&inserted, compared, blind_m, config)?;
+                place_sweep(&mut state, sweep, compared, &field, &prior, config)?;
                 state
             }
         };
@@ -382,16 +391,16 @@ pub fn build_map(
 
     // Each sweep against the map of all the others.
     for _pass in 0..REFINE_PASSES {
-        refine_pass(&mut placed, sweeps, rops, blind_m, config)?;
+        refine_pass(&mut placed, sweeps, compared, blind_m, config)?;
         progress();
     }
     // The sweeps moved together to agree with every pair's match, then
     // each placed once more against that map.
     if sweeps.len() > 1 {
-        let mut edges = sweep_edges(&placed, sweeps, rops, blind_m, config)?;
+        let mut edges = sweep_edges(&placed, sweeps, compared, blind_m, config)?;
         edges.extend(motion_edges(&placed, sweeps, frames, config));
         adjust_sweeps(&mut placed, edges);
-        refine_pass(&mut placed, sweeps, rops, blind_m, config)?;
+        refine_pass(&mut placed, sweeps, compared, blind_m, config)?;
     }
     progress();
 
