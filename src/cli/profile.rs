@@ -42,12 +42,13 @@ pub struct ProfileOptions {
     #[arg(long, default_value_t = VisionConfig::default().texture_ratio)]
     texture_ratio: f32,
     /// A faint step of brightness alone: more than this fraction of the
-    /// brightness tolerance within one image row, but less than the edge
-    /// fraction.
+    /// brightness tolerance within one image row (by default a third), but
+    /// less than the edge fraction.
     #[arg(long, default_value_t = VisionConfig::default().faint_step_fraction)]
     faint_step_fraction: f32,
     /// The most texture above a faint step, as a share of the floor's
-    /// below, that makes it an obstacle's base (0 turns faint steps off).
+    /// below, that makes it an obstacle's base (by default a third; 0 turns
+    /// faint steps off).
     #[arg(long, default_value_t = VisionConfig::default().faint_texture_ratio)]
     faint_texture_ratio: f32,
 }
