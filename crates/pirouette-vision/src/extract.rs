@@ -375,36 +375,23 @@ impl RopExtractor {
             let chroma_edges = lanes.edge_columns(cols.clone()).filter(|&u| {
                 !past_top[u] && self.edge_confirms(px, u as u32, v, lanes.coasted(u), &edge_classifier)
             });
+            // A step of brightness alone, tested with its tolerances and
+            // texture ratio.
+            let brightness_step = |u: usize, test: (&Classifier, f32)| {
+                !past_top[u] && self.bright_edge_confirms(px, u as u32, v, test, grey_sigma)
+            };
             let bright_edges = (self.config.texture_ratio > 0.0)
                 .then(|| lanes.bright_edge_columns(cols.clone()))
                 .into_iter()
                 .flatten()
-                .filter(|&u| {
-                    !past_top[u]
-                        && self.bright_edge_confirms(
-                            px,
-                            u as u32,
-                            v,
-                            (&bright_classifier, self.config.texture_ratio),
-                            grey_sigma,
-                        )
-                });
+                .filter(|&u| brightness_step(u, (&bright_classifier, self.config.texture_ratio)));
             let faint_edges = self
                 .config
                 .faint_steps()
                 .then(|| lanes.faint_edge_columns(cols.clone()))
                 .into_iter()
                 .flatten()
-                .filter(|&u| {
-                    !past_top[u]
-                        && self.bright_edge_confirms(
-                            px,
-                            u as u32,
-                            v,
-                            (&faint_classifier, self.config.faint_texture_ratio),
-                            grey_sigma,
-                        )
-                });
+                .filter(|&u| brightness_step(u, (&faint_classifier, self.config.faint_texture_ratio)));
             for u in chroma_edges.chain(bright_edges).chain(faint_edges) {
                 candidates.push(
                     u,
