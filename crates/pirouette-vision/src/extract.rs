@@ -937,6 +937,39 @@ mod tests {
         assert_eq!(matching.for_matching(), None);
     }
 
+    /// The profiles views are compared on: every setting kept but the
+    /// faint steps; none where they are off, or where the texture cue they
+    /// belong to is.
+    #[test]
+    fn comparing_settings_drop_only_the_faint_steps() {
+        let config = VisionConfig {
+            bin_width_rad: 0.25f64.to_radians(),
+            min_brightness_step: 0.2,
+            ..VisionConfig::default()
+        };
+        assert!(config.faint_steps(), "faint steps are on by default");
+        let comparing = config.for_comparing().expect("faint steps were on");
+        assert_eq!(
+            comparing,
+            VisionConfig {
+                faint_texture_ratio: 0.0,
+                ..config.clone()
+            }
+        );
+        assert!(comparing.validate().is_ok());
+        assert_eq!(comparing.for_comparing(), None);
+        let matching = config.for_matching().expect("the texture cue was on");
+        assert!(!matching.faint_steps(), "no faint steps without the texture cue");
+        assert_eq!(matching.for_comparing(), None);
+        // A faint fraction at or above the edge fraction leaves nothing
+        // between them.
+        let none_between = VisionConfig {
+            faint_step_fraction: 0.5,
+            ..config
+        };
+        assert!(!none_between.faint_steps());
+    }
+
     #[test]
     fn finds_sub_pixel_edge_of_a_wall() {
         let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
