@@ -89,7 +89,7 @@ impl SweepOptions {
 pub struct SweepRun {
     /// The extractor (camera tables, settings).
     pub extractor: pirouette::vision::RopExtractor,
-    /// One profile per frame.
+    /// One profile per frame, every cue on: for the map's grid.
     pub rops: Vec<pirouette::profile::Rop>,
     /// One profile per frame for comparing views (see
     /// [`pipeline::SweepProfiles::compared`]).
