@@ -70,7 +70,9 @@ enum GraphCommand {
 #[derive(Subcommand, Debug)]
 enum EvalCommand {
     /// Profiles against truth/rop: median |relative range error|, share of
-    /// truth bins within 10 %, missed, and false ranges on obstacle-free bins.
+    /// truth bins within 10 %, missed, and false ranges on obstacle-free bins
+    /// (again, as "(scene)", counting only those where truth/world.json cast
+    /// densely has no obstacle within the limit in the bin's view either).
     Profile(profile::EvalProfileArgs),
     /// Verified turns against true headings: per-turn error of the estimate
     /// and of the command, heading error over each sweep, fallbacks.

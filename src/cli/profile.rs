@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Result};
 use pirouette::camera::ModelKind;
-use pirouette::eval::ProfileTally;
+use pirouette::eval::{ProfileTally, SceneView};
 use pirouette::pipeline;
 use pirouette::profile::filter::OutlierFilter;
 use pirouette::vision::VisionConfig;
@@ -186,7 +186,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     if !a.json {
         outln!(
-            "{:<18} {:<8} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7} {:>7}",
+            "{:<18} {:<8} {:>10} {:>9} {:>10} {:>8} {:>9} {:>9} {:>7} {:>7}",
             "dataset",
             "model",
             "|rel err|",
@@ -194,6 +194,7 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
             "within10%",
             "missed",
             "false rng",
+            "(scene)",
             "truth",
             "free"
         )?;
@@ -210,15 +211,31 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
         if truths.iter().all(Option::is_none) {
             bail!("{}: no truth/rop files to evaluate against", ds.root.display());
         }
+        // The scene, where the dataset has one, checks the false ranges
+        // again (the true camera: the most accurate model).
+        let world = ds.world()?;
+        let poses = ds.truth_poses();
+        let true_camera = ds.camera(None)?;
+        let scenes: Vec<Option<SceneView<'_>>> = (0..truths.len())
+            .map(|i| {
+                let (world, poses) = (world.as_ref()?, poses.as_ref()?);
+                Some(SceneView {
+                    world,
+                    camera: &true_camera,
+                    world_from_robot: poses[i],
+                    max_range_m: ds.manifest.max_range,
+                })
+            })
+            .collect();
         for model in models {
             let extractor = pipeline::extractor(ds, Some(model), config.clone())?;
             let bar = super::progress(ds.manifest.frames.len(), "profile");
             let rops = pipeline::profiles(ds, &extractor, || bar.inc(1))?;
             bar.finish_and_clear();
             let mut tally = ProfileTally::default();
-            for (rop, truth) in rops.iter().zip(&truths) {
+            for ((rop, truth), scene) in rops.iter().zip(&truths).zip(&scenes) {
                 if let Some(t) = truth {
-                    tally.add(rop, t);
+                    tally.add_with_scene(rop, t, scene.as_ref());
                 }
             }
             print_scores(&ds.label(), model, &tally, a.json)?;
@@ -252,7 +269,7 @@ fn print_scores(name: &str, model: ModelKind, tally: &ProfileTally, json: bool) 
         outln!("{v}")?;
     } else {
         outln!(
-            "{:<18} {:<8} {:>9.2}% {:>8.2}% {:>9.1}% {:>7.1}% {:>8.2}% {:>7} {:>7}",
+            "{:<18} {:<8} {:>9.2}% {:>8.2}% {:>9.1}% {:>7.1}% {:>8.2}% {:>9} {:>7} {:>7}",
             name,
             model_name(model),
             s.median_abs_rel_error * 100.0,
@@ -260,6 +277,8 @@ fn print_scores(name: &str, model: ModelKind, tally: &ProfileTally, json: bool) 
             s.within_10pct * 100.0,
             s.missed * 100.0,
             s.false_range * 100.0,
+            s.false_range_scene
+                .map_or_else(|| "-".to_string(), |f| format!("{:.2}%", f * 100.0)),
             s.truth_bins,
             s.free_bins
         )?;

@@ -4,7 +4,9 @@
 
 pub mod map;
 
-use pirouette_io::TruthRop;
+use pirouette_camera::CameraModel;
+use pirouette_geom::{Point2, Pose2};
+use pirouette_io::{TruthRop, World};
 use pirouette_profile::Rop;
 use serde::Serialize;
 
@@ -27,6 +29,54 @@ pub struct ProfileTally {
     pub free_bins: usize,
     /// Free bins that were given a range.
     pub false_ranges: usize,
+    /// Free bins checked against the scene's geometry (see [`SceneView`]).
+    pub scene_checked: usize,
+    /// Checked free bins given a range where the scene has no obstacle
+    /// within the soft limit anywhere in the bin's view.
+    pub scene_false_ranges: usize,
+}
+
+/// Rays cast per truth bin when a false range is checked against the
+/// scene: about 0.01° apart at 1° bins, finer than a column.
+pub const SCENE_RAYS_PER_BIN: usize = 100;
+
+/// The scene behind a frame, for a second look at false ranges.
+///
+/// A truth profile samples each bin with a few rays, so an obstacle that
+/// enters a bin by less than their spacing, or a bin seen only at the
+/// image's edge beyond its outermost ray, reads as free there. The scene's
+/// geometry, cast densely, tells those from ranges where nothing is.
+pub struct SceneView<'a> {
+    /// The scene (`truth/world.json`).
+    pub world: &'a World,
+    /// The camera (what it sees bounds the bins' view).
+    pub camera: &'a dyn CameraModel,
+    /// The robot's true pose.
+    pub world_from_robot: Pose2,
+    /// The soft range limit, metres.
+    pub max_range_m: f64,
+}
+
+impl SceneView<'_> {
+    /// Whether some obstacle within the soft limit lies in view at bearings
+    /// `[start_rad, start_rad + width_rad)` of the robot.
+    pub fn obstacle_in_bin(&self, start_rad: f64, width_rad: f64) -> bool {
+        let origin = [self.world_from_robot.x, self.world_from_robot.y];
+        (0..SCENE_RAYS_PER_BIN).any(|k| {
+            let bearing = start_rad + (k as f64 + 0.5) / SCENE_RAYS_PER_BIN as f64 * width_rad;
+            let dir = self
+                .world_from_robot
+                .rotate_vector(Point2::from_polar(1.0, bearing));
+            let Some((t, _)) = self.world.ray_cast(origin, [dir.x, dir.y]) else {
+                return false;
+            };
+            t <= self.max_range_m
+                && self
+                    .camera
+                    .floor_to_pixel(Point2::from_polar(t, bearing))
+                    .is_some_and(|(u, v)| self.camera.contains(u, v))
+        })
+    }
 }
 
 /// The scores of a [`ProfileTally`].
@@ -42,6 +92,10 @@ pub struct ProfileScores {
     pub missed: f64,
     /// Share of obstacle-free bins given a false range.
     pub false_range: f64,
+    /// Share of obstacle-free bins given a range where the scene, cast
+    /// densely, has no obstacle in the bin's view either (null without a
+    /// scene).
+    pub false_range_scene: Option<f64>,
     /// Truth bins counted.
     pub truth_bins: usize,
     /// Obstacle-free bins counted.
@@ -66,6 +120,12 @@ impl ProfileTally {
     /// Adds one frame: every truth bin against the nearest reliable range
     /// of the measured bins whose centres fall inside it (any bin width).
     pub fn add(&mut self, measured: &Rop, truth: &TruthRop) {
+        self.add_with_scene(measured, truth, None);
+    }
+
+    /// [`ProfileTally::add`], each false range also checked against the
+    /// scene where one is given.
+    pub fn add_with_scene(&mut self, measured: &Rop, truth: &TruthRop, scene: Option<&SceneView<'_>>) {
         let w_t = truth.bin_deg.to_radians();
         let t0 = truth.bearing_start_deg.to_radians();
         let mut nearest = vec![None::<f32>; truth.range.len()];
@@ -79,7 +139,7 @@ impl ProfileTally {
                 *slot = Some(slot.map_or(r, |s: f32| s.min(r)));
             }
         }
-        for (t, m) in truth.range.iter().zip(&nearest) {
+        for (k, (t, m)) in truth.range.iter().zip(&nearest).enumerate() {
             match (t, m) {
                 (Some(t), Some(m)) => {
                     self.truth_bins += 1;
@@ -98,6 +158,12 @@ impl ProfileTally {
                     if m.is_some() {
                         self.false_ranges += 1;
                     }
+                    if let Some(scene) = scene {
+                        self.scene_checked += 1;
+                        if m.is_some() && !scene.obstacle_in_bin(t0 + k as f64 * w_t, w_t) {
+                            self.scene_false_ranges += 1;
+                        }
+                    }
                 }
             }
         }
@@ -111,6 +177,8 @@ impl ProfileTally {
         self.missed += other.missed;
         self.free_bins += other.free_bins;
         self.false_ranges += other.false_ranges;
+        self.scene_checked += other.scene_checked;
+        self.scene_false_ranges += other.scene_false_ranges;
     }
 
     /// The scores.
@@ -123,6 +191,9 @@ impl ProfileTally {
             within_10pct: share(self.within, self.truth_bins),
             missed: share(self.missed, self.truth_bins),
             false_range: share(self.false_ranges, self.free_bins),
+            // Only when every free bin was checked.
+            false_range_scene: (self.scene_checked == self.free_bins && self.free_bins > 0)
+                .then(|| share(self.scene_false_ranges, self.free_bins)),
             truth_bins: self.truth_bins,
             free_bins: self.free_bins,
         }
@@ -153,6 +224,65 @@ mod tests {
         let s = t.scores();
         assert!((s.median_abs_rel_error - 0.04).abs() < 1e-6);
         assert_eq!(s.missed, 0.5);
+        assert_eq!(s.false_range_scene, None, "no scene, no second look");
+    }
+
+    /// A wall whose end enters bin [0°, 1°) by 0.03°, between the first of
+    /// nine sampling rays (at 0.056°) and the bin's edge: a truth profile
+    /// of nine rays calls the bin free, the scene does not. Bin [2°, 3°)
+    /// has nothing at all.
+    #[test]
+    fn false_ranges_are_checked_against_the_scene() {
+        let (x, y_max, y_min) = (
+            0.5,
+            0.5 * 0.03f64.to_radians().tan(),
+            -0.5 * 5f64.to_radians().tan(),
+        );
+        let world = World {
+            bounds: [-2.0, -2.0, 2.0, 2.0],
+            floor_rgb: [30, 30, 30],
+            obstacles: vec![pirouette_io::Obstacle::Box {
+                center: [x + 0.05, (y_max + y_min) / 2.0],
+                size: [0.1, y_max - y_min],
+                yaw_deg: 0.0,
+                height: 0.1,
+                rgb: [200, 200, 200],
+            }],
+        };
+        let camera = pirouette_camera::PinholeModel {
+            width: 320,
+            height: 240,
+            fx: 277.0,
+            fy: 277.0,
+            cx: 159.5,
+            cy: 119.5,
+            height_m: 0.1,
+            tilt_rad: 25f64.to_radians(),
+            mount_forward_m: 0.0,
+            mount_left_m: 0.0,
+        };
+        let scene = SceneView {
+            world: &world,
+            camera: &camera,
+            world_from_robot: Pose2::new(0.0, 0.0, 0.0),
+            max_range_m: 0.9,
+        };
+        let nine_rays_hit = (0..9).any(|k| {
+            let b = ((k as f64 + 0.5) / 9.0).to_radians();
+            world.ray_cast([0.0, 0.0], [b.cos(), b.sin()]).is_some()
+        });
+        assert!(!nine_rays_hit, "the sliver lies between the sampling rays");
+        let truth = TruthRop {
+            bearing_start_deg: 0.0,
+            bin_deg: 1.0,
+            range: vec![None, None, None],
+        };
+        let mut m = Rop::empty(0.0, 1f64.to_radians(), 3, 0.9);
+        m.range_m = vec![0.5, f32::INFINITY, 0.4];
+        let mut t = ProfileTally::default();
+        t.add_with_scene(&m, &truth, Some(&scene));
+        assert_eq!((t.free_bins, t.false_ranges, t.scene_false_ranges), (3, 2, 1));
+        assert_eq!(t.scores().false_range_scene, Some(1.0 / 3.0));
     }
 }
 
