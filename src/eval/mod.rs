@@ -5,7 +5,7 @@
 pub mod map;
 
 use pirouette_camera::CameraModel;
-use pirouette_geom::{Point2, Pose2};
+use pirouette_geom::Pose2;
 use pirouette_io::{TruthRop, World};
 use pirouette_profile::Rop;
 use serde::Serialize;
@@ -61,21 +61,15 @@ impl SceneView<'_> {
     /// Whether some obstacle within the soft limit lies in view at bearings
     /// `[start_rad, start_rad + width_rad)` of the robot.
     pub fn obstacle_in_bin(&self, start_rad: f64, width_rad: f64) -> bool {
-        let origin = [self.world_from_robot.x, self.world_from_robot.y];
-        (0..SCENE_RAYS_PER_BIN).any(|k| {
-            let bearing = start_rad + (k as f64 + 0.5) / SCENE_RAYS_PER_BIN as f64 * width_rad;
-            let dir = self
-                .world_from_robot
-                .rotate_vector(Point2::from_polar(1.0, bearing));
-            let Some((t, _)) = self.world.ray_cast(origin, [dir.x, dir.y]) else {
-                return false;
-            };
-            t <= self.max_range_m
-                && self
-                    .camera
-                    .floor_to_pixel(Point2::from_polar(t, bearing))
-                    .is_some_and(|(u, v)| self.camera.contains(u, v))
-        })
+        pirouette_sim::nearest_in_view(
+            self.world,
+            self.camera,
+            &self.world_from_robot,
+            start_rad,
+            width_rad,
+            SCENE_RAYS_PER_BIN,
+        )
+        .is_some_and(|t| t <= self.max_range_m)
     }
 }
 

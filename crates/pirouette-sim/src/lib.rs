@@ -28,7 +28,7 @@ mod truth;
 pub use motion::{plan_route, PlannedFrame};
 pub use render::Renderer;
 pub use scene::{CameraSetup, Look, MotionErrors, Route, Scene, SimError, BUILTIN_SCENES};
-pub use truth::{true_profile, RAYS_PER_BIN};
+pub use truth::{nearest_in_view, true_profile, RAYS_PER_BIN};
 
 use pirouette_camera::FloorTable;
 use pirouette_io::{

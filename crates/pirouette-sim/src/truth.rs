@@ -27,21 +27,43 @@ pub fn true_profile(
     let (lo, hi) = view_bearings_rad;
     let mut rop = Rop::covering(lo, hi, bin_width_rad, max_range_m as f32)
         .expect("camera view and bin width are valid");
-    let origin = [world_from_robot.x, world_from_robot.y];
     for i in 0..rop.len() {
         let start = rop.bearing_start_rad + i as f64 * bin_width_rad;
-        let nearest = (0..RAYS_PER_BIN)
-            .filter_map(|k| {
-                let bearing = start + (k as f64 + 0.5) / RAYS_PER_BIN as f64 * bin_width_rad;
-                let dir = world_from_robot.rotate_vector(Point2::from_polar(1.0, bearing));
-                let (t, _) = world.ray_cast(origin, [dir.x, dir.y])?;
-                let (u, v) = camera.floor_to_pixel(Point2::from_polar(t, bearing))?;
-                camera.contains(u, v).then_some(t)
-            })
-            .fold(f64::INFINITY, f64::min);
-        if nearest.is_finite() {
+        if let Some(nearest) = nearest_in_view(
+            world,
+            camera,
+            world_from_robot,
+            start,
+            bin_width_rad,
+            RAYS_PER_BIN,
+        ) {
             rop.range_m[i] = nearest as f32;
         }
     }
     rop
+}
+
+/// The nearest obstacle at bearings `[start_rad, start_rad + width_rad)`
+/// of the robot at `world_from_robot`, over `rays` rays cast from its
+/// centre at the middles of equal parts of the interval, counting only
+/// hits whose floor point lies inside the image; `None` where no ray hits
+/// in view.
+pub fn nearest_in_view<C: CameraModel + ?Sized>(
+    world: &World,
+    camera: &C,
+    world_from_robot: &Pose2,
+    start_rad: f64,
+    width_rad: f64,
+    rays: usize,
+) -> Option<f64> {
+    let origin = [world_from_robot.x, world_from_robot.y];
+    (0..rays)
+        .filter_map(|k| {
+            let bearing = start_rad + (k as f64 + 0.5) / rays as f64 * width_rad;
+            let dir = world_from_robot.rotate_vector(Point2::from_polar(1.0, bearing));
+            let (t, _) = world.ray_cast(origin, [dir.x, dir.y])?;
+            let (u, v) = camera.floor_to_pixel(Point2::from_polar(t, bearing))?;
+            camera.contains(u, v).then_some(t)
+        })
+        .reduce(f64::min)
 }
