@@ -243,18 +243,8 @@ mod tests {
                 rgb: [200, 200, 200],
             }],
         };
-        let camera = pirouette_camera::PinholeModel {
-            width: 320,
-            height: 240,
-            fx: 277.0,
-            fy: 277.0,
-            cx: 159.5,
-            cy: 119.5,
-            height_m: 0.1,
-            tilt_rad: 25f64.to_radians(),
-            mount_forward_m: 0.0,
-            mount_left_m: 0.0,
-        };
+        // The paper's camera: 320 × 240, 60° across, 10 cm up, 25° down.
+        let camera = pirouette_sim::CameraSetup::default().pinhole();
         let scene = SceneView {
             world: &world,
             camera: &camera,
