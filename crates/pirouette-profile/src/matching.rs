@@ -146,8 +146,8 @@ pub enum Evidence {
     /// Ranges and obstacle colours.
     RangeAndColour,
     /// The only unverified turn of a closed pirouette: the closing match
-    /// and the loop's other turns, all verified, fix it (see
-    /// [`crate::sweep::assemble`]).
+    /// and the loop's other turns, all verified, fix it, or pick the basin
+    /// of its own ambiguous match (see [`crate::sweep::assemble`]).
     Loop,
     /// Fallback: the profiles overlap too little in the window.
     NoOverlap,

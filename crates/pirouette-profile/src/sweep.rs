@@ -58,6 +58,21 @@ impl SweepConfig {
                 .max(self.matching.basin_rad / turn.significance())
         }
     }
+
+    /// Standard deviation of an ambiguous match's own best angle
+    /// ([`TurnEstimate::candidate_rad`]) as a measurement of its turn,
+    /// radians: as for a verified match, the larger of
+    /// `verified_sigma_rad` and `basin / z`; `None` for other fallbacks
+    /// and where that is no tighter than the command.
+    pub fn candidate_sigma_rad(&self, turn: &TurnEstimate) -> Option<f64> {
+        if !(turn.fallback && turn.evidence == Evidence::Ambiguous && turn.candidate_rad.is_some()) {
+            return None;
+        }
+        let sigma = self
+            .verified_sigma_rad
+            .max(self.matching.basin_rad / turn.significance());
+        (sigma < self.commanded_sigma_rad).then_some(sigma)
+    }
 }
 
 /// The loop closure of a pirouette.
@@ -67,7 +82,10 @@ pub struct LoopClosure {
     pub frame: usize,
     /// The closing match (from that frame back round to the first).
     pub closing: TurnEstimate,
-    /// Sum of the turns round the loop minus 360°, radians, before spreading.
+    /// Sum of the turns round the loop and the closing match minus 360°,
+    /// radians, before spreading (the loop's lone ambiguous turn at its best
+    /// match where the loop picked that match's basin: see
+    /// [`assemble`]).
     pub residual_rad: f64,
     /// Whether the residual was spread over the turns.
     pub applied: bool,
@@ -95,6 +113,24 @@ pub struct Sweep {
 /// Joins the profiles of one pirouette. `commanded_rad[k]` is the commanded
 /// turn before frame `k` (`None` for the first frame). All profiles share
 /// one bin width.
+///
+/// Where the pirouette comes round (a frame's view overlaps the first's
+/// and the match between them is verified), the loop residual, the sum
+/// of the turns and that closing match minus 360°, is spread over the
+/// turns by least squares under the loop constraint: each takes a share in
+/// proportion to its variance ([`SweepConfig::turn_sigma_rad`]), unless
+/// the residual exceeds [`SweepConfig::max_residual_sigmas`] of the loop's
+/// standard deviation (a wrong match; the turns are left as measured). A
+/// fallback enters at its command and takes nearly all of the residual; it
+/// stays flagged, since the sum of many verified turns is not as sure as
+/// one match, unless it is the loop's only unverified turn, which the loop
+/// then fixes ([`Evidence::Loop`]). Where that turn's match was merely
+/// ambiguous, the loop puts it where the closing match and the other turns
+/// leave it; within half a basin ([`MatchConfig::basin_rad`]) of its best
+/// match, nearer to that match than to any rival minimum (a basin or more
+/// away), the loop has picked the match's basin, and the turn enters at
+/// that match with the variance of [`SweepConfig::candidate_sigma_rad`]
+/// instead of at its command.
 pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfig) -> Sweep {
     assert_eq!(rops.len(), commanded_rad.len(), "one command per profile");
     let mut turns: Vec<Option<TurnEstimate>> = (0..rops.len())
@@ -175,26 +211,56 @@ fn close_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], config: &SweepCo
             applied: false,
         });
     }
-    let loop_turns = &mut turns[1..=k];
-    let sum: f64 = loop_turns.iter().flatten().map(|t| t.turn_rad).sum::<f64>() + closing.turn_rad;
-    let residual = sum - TAU;
-    let total_var: f64 = loop_turns.iter().flatten().map(var).sum::<f64>() + var(&closing);
-    let applied = residual.abs() <= config.max_residual_sigmas * total_var.sqrt();
-    if applied {
-        // Least squares under the loop constraint: each turn takes a share
-        // of the residual in proportion to its variance, so fallback turns
-        // take nearly all of it. They stay flagged: the sum of many
-        // verified turns is not as sure as one match.
-        for t in loop_turns.iter_mut().flatten() {
-            t.turn_rad -= residual * var(t) / total_var;
-        }
-    }
+    let (residual, applied) = spread_residual(&mut turns[1..=k], &closing, config);
     Some(LoopClosure {
         frame: k,
         closing,
         residual_rad: residual,
         applied,
     })
+}
+
+/// Spreads a loop's residual over its turns `loop_turns` (see
+/// [`assemble`]), `closing` the match from the loop's last frame back to
+/// the first. Returns the residual and whether it was spread.
+fn spread_residual(
+    loop_turns: &mut [Option<TurnEstimate>],
+    closing: &TurnEstimate,
+    config: &SweepConfig,
+) -> (f64, bool) {
+    let var = |t: &TurnEstimate| config.turn_sigma_rad(t).powi(2);
+    let mut measured: Vec<Option<(f64, f64)>> = loop_turns
+        .iter()
+        .map(|t| t.map(|t| (t.turn_rad, var(&t))))
+        .collect();
+    let residual_of = |measured: &[Option<(f64, f64)>]| {
+        measured.iter().flatten().map(|m| m.0).sum::<f64>() + closing.turn_rad - TAU
+    };
+    if let Some(i) = loop_determined(loop_turns) {
+        let t = loop_turns[i].expect("an unverified turn with a match");
+        if let (Some(candidate), Some(sigma)) = (t.candidate_rad, config.candidate_sigma_rad(&t)) {
+            let mut with = measured.clone();
+            with[i] = Some((candidate, sigma * sigma));
+            // With the candidate in, the residual is its distance from
+            // where the loop puts the turn.
+            if wrap(residual_of(&with)).abs() <= config.matching.basin_rad / 2.0 {
+                measured = with;
+            }
+        }
+    }
+    let residual = residual_of(&measured);
+    let total_var = measured.iter().flatten().map(|m| m.1).sum::<f64>() + var(closing);
+    let applied = residual.abs() <= config.max_residual_sigmas * total_var.sqrt();
+    if applied {
+        for (t, (value, v)) in loop_turns
+            .iter_mut()
+            .zip(&measured)
+            .filter_map(|(t, m)| Some((t.as_mut()?, (*m)?)))
+        {
+            t.turn_rad = value - residual * v / total_var;
+        }
+    }
+    (residual, applied)
 }
 
 /// The one unverified turn of a closed loop's turns, if there is exactly
@@ -417,6 +483,79 @@ mod tests {
             ..turn(0.05, true)
         };
         assert!((deg(&fixed) - 0.5).abs() < 1e-9);
+    }
+
+    /// A loop of eleven turns of 30° and a closing match of 30°: ten
+    /// verified turns measured 0.1° long each, and one ambiguous match
+    /// (significance 2: 1.5° as a measurement) whose command is 2.5° long.
+    /// Its best match 0.05° long lies 1.05° from where the loop puts the
+    /// turn (1° short): the loop picks that match's basin, and the turn
+    /// enters at it. A best match 4° long is 5° away, a rival's basin: the
+    /// turn enters at its command. Both spread by least squares.
+    #[test]
+    fn the_loop_picks_an_ambiguous_turns_basin_or_its_command() {
+        let config = SweepConfig::default();
+        let deg = f64::to_radians;
+        let verified = TurnEstimate {
+            turn_rad: deg(30.1),
+            confidence: 1.0,
+            fallback: false,
+            evidence: Evidence::Range,
+            overlap_bins: 100,
+            candidate_rad: Some(deg(30.1)),
+            shift: None,
+        };
+        let closing = TurnEstimate {
+            turn_rad: deg(30.0),
+            ..verified
+        };
+        let run = |candidate_deg: f64| {
+            let ambiguous = TurnEstimate {
+                turn_rad: deg(32.5),
+                confidence: 0.4,
+                fallback: true,
+                evidence: Evidence::Ambiguous,
+                candidate_rad: Some(deg(candidate_deg)),
+                ..verified
+            };
+            let mut turns = vec![Some(verified); 11];
+            turns[4] = Some(ambiguous);
+            let (residual, applied) = spread_residual(&mut turns, &closing, &config);
+            (turns, residual.to_degrees(), applied)
+        };
+        let (v_verified, v_closing) = (0.25, 0.25);
+        assert!(
+            (config
+                .candidate_sigma_rad(&run(30.05).0[4].unwrap())
+                .unwrap()
+                .to_degrees()
+                - 1.5)
+                .abs()
+                < 1e-12
+        );
+        for (candidate, value, v) in [(30.05, 30.05, 1.5 * 1.5), (34.0, 32.5, 9.0)] {
+            let (turns, residual, applied) = run(candidate);
+            let expected = 10.0 * 0.1 + (value - 30.0);
+            assert!(
+                applied && (residual - expected).abs() < 1e-9,
+                "{candidate}: {residual}"
+            );
+            let total = 10.0 * v_verified + v + v_closing;
+            let fixed = turns[4].unwrap().turn_rad.to_degrees();
+            assert!(
+                (fixed - (value - residual * v / total)).abs() < 1e-9,
+                "{candidate}: {fixed}"
+            );
+            let other = turns[0].unwrap().turn_rad.to_degrees();
+            assert!((other - (30.1 - residual * v_verified / total)).abs() < 1e-9);
+            let sum: f64 = turns
+                .iter()
+                .flatten()
+                .map(|t| t.turn_rad.to_degrees())
+                .sum::<f64>()
+                + 30.0;
+            assert!((sum - 360.0 - residual * v_closing / total).abs() < 1e-9, "{sum}");
+        }
     }
 
     fn scene(bearing: f64) -> f32 {
