@@ -145,9 +145,10 @@ pub enum Evidence {
     Range,
     /// Ranges and obstacle colours.
     RangeAndColour,
-    /// The only unverified turn of a closed pirouette: the closing match
-    /// and the loop's other turns, all verified, fix it, or pick the basin
-    /// of its own ambiguous match (see [`crate::sweep::assemble`]).
+    /// An unverified turn of a closed pirouette that the loop fixed: its
+    /// only one (the closing match and the loop's other turns, all
+    /// verified, fix it), or one of ambiguous matches whose basins the
+    /// loop picked (see [`crate::sweep::assemble`]).
     Loop,
     /// Fallback: the profiles overlap too little in the window.
     NoOverlap,

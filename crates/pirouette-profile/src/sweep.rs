@@ -83,9 +83,8 @@ pub struct LoopClosure {
     /// The closing match (from that frame back round to the first).
     pub closing: TurnEstimate,
     /// Sum of the turns round the loop and the closing match minus 360°,
-    /// radians, before spreading (the loop's lone ambiguous turn at its best
-    /// match where the loop picked that match's basin: see
-    /// [`assemble`]).
+    /// radians, before spreading (ambiguous turns at their best matches
+    /// where the loop picked those matches' basins: see [`assemble`]).
     pub residual_rad: f64,
     /// Whether the residual was spread over the turns.
     pub applied: bool,
@@ -124,13 +123,16 @@ pub struct Sweep {
 /// fallback enters at its command and takes nearly all of the residual; it
 /// stays flagged, since the sum of many verified turns is not as sure as
 /// one match, unless it is the loop's only unverified turn, which the loop
-/// then fixes ([`Evidence::Loop`]). Where that turn's match was merely
-/// ambiguous, the loop puts it where the closing match and the other turns
-/// leave it; within half a basin ([`MatchConfig::basin_rad`]) of its best
-/// match, nearer to that match than to any rival minimum (a basin or more
-/// away), the loop has picked the match's basin, and the turn enters at
-/// that match with the variance of [`SweepConfig::candidate_sigma_rad`]
-/// instead of at its command.
+/// then fixes ([`Evidence::Loop`]).
+///
+/// Where every unverified turn of the loop was merely ambiguous, the loop
+/// puts their sum where the closing match and the other turns leave it.
+/// Where the sum of their best matches lies within half a basin
+/// ([`MatchConfig::basin_rad`]) of that, the loop has picked those
+/// matches' basins (any one of them at a rival minimum, a basin or more
+/// away, would put the sum further off): the turns enter at their best
+/// matches, with the variance of [`SweepConfig::candidate_sigma_rad`],
+/// instead of at their commands, and count as fixed by the loop.
 pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfig) -> Sweep {
     assert_eq!(rops.len(), commanded_rad.len(), "one command per profile");
     let mut turns: Vec<Option<TurnEstimate>> = (0..rops.len())
@@ -144,10 +146,6 @@ pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfi
     let mut links: Vec<(usize, usize)> = Vec::new();
     if let Some(c) = closure.filter(|c| c.applied) {
         links.push((0, c.frame));
-        if let Some(k) = loop_determined(&turns[1..=c.frame]).map(|i| i + 1) {
-            let t = turns[k].as_mut().expect("a turn inside the loop");
-            (t.fallback, t.evidence) = (false, Evidence::Loop);
-        }
         links.extend(rematch_after_loop(rops, &mut turns, c.frame + 1, config));
     }
     for (k, t) in turns.iter().enumerate().skip(1) {
@@ -236,18 +234,27 @@ fn spread_residual(
     let residual_of = |measured: &[Option<(f64, f64)>]| {
         measured.iter().flatten().map(|m| m.0).sum::<f64>() + closing.turn_rad - TAU
     };
-    if let Some(i) = loop_determined(loop_turns) {
-        let t = loop_turns[i].expect("an unverified turn with a match");
-        if let (Some(candidate), Some(sigma)) = (t.candidate_rad, config.candidate_sigma_rad(&t)) {
+    let unverified: Vec<usize> = (0..loop_turns.len())
+        .filter(|&i| loop_turns[i].is_some_and(|t| t.fallback))
+        .collect();
+    // Every unverified turn at its ambiguous match, where each has one.
+    let with_candidates: Option<Vec<Option<(f64, f64)>>> = (!unverified.is_empty())
+        .then(|| {
             let mut with = measured.clone();
-            with[i] = Some((candidate, sigma * sigma));
-            // With the candidate in, the residual is its distance from
-            // where the loop puts the turn.
-            if wrap(residual_of(&with)).abs() <= config.matching.basin_rad / 2.0 {
-                measured = with;
+            for &i in &unverified {
+                let t = loop_turns[i]?;
+                let sigma = config.candidate_sigma_rad(&t)?;
+                with[i] = Some((t.candidate_rad?, sigma * sigma));
             }
-        }
-    }
+            Some(with)
+        })
+        .flatten();
+    // With the candidates in, the residual is the distance of their sum
+    // from where the loop puts it.
+    let picked = with_candidates
+        .filter(|with| wrap(residual_of(with)).abs() <= config.matching.basin_rad / 2.0)
+        .map(|with| measured = with)
+        .is_some();
     let residual = residual_of(&measured);
     let total_var = measured.iter().flatten().map(|m| m.1).sum::<f64>() + var(closing);
     let applied = residual.abs() <= config.max_residual_sigmas * total_var.sqrt();
@@ -259,24 +266,16 @@ fn spread_residual(
         {
             t.turn_rad = value - residual * v / total_var;
         }
+        // The turns the loop fixed: those whose basins it picked, or its
+        // only unverified one.
+        if picked || unverified.len() == 1 {
+            for &i in &unverified {
+                let t = loop_turns[i].as_mut().expect("an unverified turn");
+                (t.fallback, t.evidence) = (false, Evidence::Loop);
+            }
+        }
     }
     (residual, applied)
-}
-
-/// The one unverified turn of a closed loop's turns, if there is exactly
-/// one: the loop closure gave it the residual, so the closing match and the
-/// other turns, all verified, fix its angle to their summed accuracy (a few
-/// tenths of a degree for a dozen turns). With two or more, only their sum
-/// is known.
-fn loop_determined(loop_turns: &[Option<TurnEstimate>]) -> Option<usize> {
-    let mut unverified = loop_turns
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t.is_none_or(|t| t.fallback));
-    match (unverified.next(), unverified.next()) {
-        (Some((i, Some(_))), None) => Some(i),
-        _ => None,
-    }
 }
 
 /// Frames after the loop (the turn towards the next spot may be wider than
@@ -485,76 +484,115 @@ mod tests {
         assert!((deg(&fixed) - 0.5).abs() < 1e-9);
     }
 
-    /// A loop of eleven turns of 30° and a closing match of 30°: ten
-    /// verified turns measured 0.1° long each, and one ambiguous match
-    /// (significance 2: 1.5° as a measurement) whose command is 2.5° long.
-    /// Its best match 0.05° long lies 1.05° from where the loop puts the
-    /// turn (1° short): the loop picks that match's basin, and the turn
-    /// enters at it. A best match 4° long is 5° away, a rival's basin: the
-    /// turn enters at its command. Both spread by least squares.
-    #[test]
-    fn the_loop_picks_an_ambiguous_turns_basin_or_its_command() {
-        let config = SweepConfig::default();
-        let deg = f64::to_radians;
-        let verified = TurnEstimate {
-            turn_rad: deg(30.1),
+    /// A verified turn of 30.1° (distinct enough to count at
+    /// `verified_sigma_rad`, 0.5°).
+    fn verified_turn() -> TurnEstimate {
+        TurnEstimate {
+            turn_rad: 30.1f64.to_radians(),
             confidence: 1.0,
             fallback: false,
             evidence: Evidence::Range,
             overlap_bins: 100,
-            candidate_rad: Some(deg(30.1)),
+            candidate_rad: Some(30.1f64.to_radians()),
             shift: None,
-        };
+        }
+    }
+
+    /// An ambiguous match of significance 2 (its best match counts at
+    /// 1.5°) that fell back to its command.
+    fn ambiguous_turn(command_deg: f64, candidate_deg: f64) -> TurnEstimate {
+        TurnEstimate {
+            turn_rad: command_deg.to_radians(),
+            confidence: 0.4,
+            fallback: true,
+            evidence: Evidence::Ambiguous,
+            candidate_rad: Some(candidate_deg.to_radians()),
+            ..verified_turn()
+        }
+    }
+
+    /// Eleven turns of 30° and a closing match of 30°, exact; verified
+    /// turns measured 0.1° long. Spreads the residual and checks the least
+    /// squares: each turn at `entered` (degrees, the ambiguous ones', in
+    /// order) minus its variance's share of the residual. Returns the
+    /// turns.
+    fn close_and_check(
+        ambiguous: &[(usize, TurnEstimate)],
+        entered: &[(f64, f64)],
+    ) -> Vec<Option<TurnEstimate>> {
+        let config = SweepConfig::default();
         let closing = TurnEstimate {
-            turn_rad: deg(30.0),
-            ..verified
+            turn_rad: 30f64.to_radians(),
+            ..verified_turn()
         };
-        let run = |candidate_deg: f64| {
-            let ambiguous = TurnEstimate {
-                turn_rad: deg(32.5),
-                confidence: 0.4,
-                fallback: true,
-                evidence: Evidence::Ambiguous,
-                candidate_rad: Some(deg(candidate_deg)),
-                ..verified
-            };
-            let mut turns = vec![Some(verified); 11];
-            turns[4] = Some(ambiguous);
-            let (residual, applied) = spread_residual(&mut turns, &closing, &config);
-            (turns, residual.to_degrees(), applied)
-        };
-        let (v_verified, v_closing) = (0.25, 0.25);
+        let mut turns = vec![Some(verified_turn()); 11];
+        for &(k, t) in ambiguous {
+            turns[k] = Some(t);
+        }
+        let (residual, applied) = spread_residual(&mut turns, &closing, &config);
+        let verified = 11 - ambiguous.len();
+        let expected = verified as f64 * 0.1 + entered.iter().map(|e| e.0 - 30.0).sum::<f64>();
         assert!(
-            (config
-                .candidate_sigma_rad(&run(30.05).0[4].unwrap())
-                .unwrap()
-                .to_degrees()
-                - 1.5)
-                .abs()
-                < 1e-12
+            applied && (residual.to_degrees() - expected).abs() < 1e-9,
+            "residual {residual}"
         );
-        for (candidate, value, v) in [(30.05, 30.05, 1.5 * 1.5), (34.0, 32.5, 9.0)] {
-            let (turns, residual, applied) = run(candidate);
-            let expected = 10.0 * 0.1 + (value - 30.0);
+        // Variances in square degrees: 0.25 for a verified turn and the
+        // closing match.
+        let total = 0.25 * (verified + 1) as f64 + entered.iter().map(|e| e.1).sum::<f64>();
+        let share = |v: f64| (residual.to_degrees() * v / total).to_radians();
+        for (k, t) in turns.iter().enumerate() {
+            let t = t.unwrap();
+            let (value, v) = match ambiguous.iter().position(|a| a.0 == k) {
+                Some(i) => entered[i],
+                None => (30.1, 0.25),
+            };
             assert!(
-                applied && (residual - expected).abs() < 1e-9,
-                "{candidate}: {residual}"
+                (t.turn_rad - (value.to_radians() - share(v))).abs() < 1e-12,
+                "turn {k}"
             );
-            let total = 10.0 * v_verified + v + v_closing;
-            let fixed = turns[4].unwrap().turn_rad.to_degrees();
-            assert!(
-                (fixed - (value - residual * v / total)).abs() < 1e-9,
-                "{candidate}: {fixed}"
-            );
-            let other = turns[0].unwrap().turn_rad.to_degrees();
-            assert!((other - (30.1 - residual * v_verified / total)).abs() < 1e-9);
-            let sum: f64 = turns
-                .iter()
-                .flatten()
-                .map(|t| t.turn_rad.to_degrees())
-                .sum::<f64>()
-                + 30.0;
-            assert!((sum - 360.0 - residual * v_closing / total).abs() < 1e-9, "{sum}");
+        }
+        turns
+    }
+
+    /// One ambiguous turn (command 2.5° long): its best match 0.05° long
+    /// lies 1.05° from where the loop puts the turn (1° short), so the loop
+    /// picks that match's basin and the turn enters at it (1.5°). A best
+    /// match 4° long is 5° away, a rival's basin: the turn enters at its
+    /// command (3°). Either way the loop fixes its only unverified turn.
+    #[test]
+    fn the_loop_picks_an_ambiguous_turns_basin_or_its_command() {
+        let config = SweepConfig::default();
+        let sigma = config.candidate_sigma_rad(&ambiguous_turn(32.5, 30.05));
+        assert!((sigma.unwrap().to_degrees() - 1.5).abs() < 1e-12);
+        for (candidate, entered) in [(30.05, (30.05, 1.5 * 1.5)), (34.0, (32.5, 9.0))] {
+            let turns = close_and_check(&[(4, ambiguous_turn(32.5, candidate))], &[entered]);
+            assert!(turns[4].is_some_and(|t| !t.fallback && t.evidence == Evidence::Loop));
+        }
+    }
+
+    /// Two ambiguous turns (commands 2.5° long and 2° short, best matches
+    /// 0.3° long and 0.2° short): the best matches' sum lies 1° from where
+    /// the loop puts it, so the loop picks both basins, and both turns
+    /// count as fixed by it. With the second best match at a rival 3.5°
+    /// long, the sum is 4.7° off: both enter at their commands and stay
+    /// flagged (the loop knows only their sum).
+    #[test]
+    fn the_loop_picks_the_basins_of_several_ambiguous_turns_together() {
+        for (second, entered) in [
+            (29.8, [(30.3, 2.25), (29.8, 2.25)]),
+            (33.5, [(32.5, 9.0), (28.0, 9.0)]),
+        ] {
+            let ambiguous = [(3, ambiguous_turn(32.5, 30.3)), (8, ambiguous_turn(28.0, second))];
+            let turns = close_and_check(&ambiguous, &entered);
+            let picked = second < 30.0;
+            for k in [3, 8] {
+                let t = turns[k].unwrap();
+                assert_eq!(
+                    (t.fallback, t.evidence == Evidence::Loop),
+                    (!picked, picked),
+                    "{second}"
+                );
+            }
         }
     }
 
