@@ -280,7 +280,12 @@ fn spread_residual(
 
 /// Frames after the loop (the turn towards the next spot may be wider than
 /// the view) are matched against the frame of the sweep whose heading is
-/// nearest to where they should look. Returns the links `(j, k)` of the re-matched frames.
+/// nearest to where they should look: those whose turn had nothing to
+/// compare with their predecessor, and those whose verified turn is wider
+/// than their heading's distance from that frame (it overlaps them more
+/// than the predecessor did, and a match on a narrow overlap may be
+/// wrong). A re-match that verifies replaces the turn. Returns the links
+/// `(j, k)` of the re-matched frames.
 fn rematch_after_loop(
     rops: &[Rop],
     turns: &mut [Option<TurnEstimate>],
@@ -292,9 +297,10 @@ fn rematch_after_loop(
     let max_turn = view - config.matching.min_overlap_rad;
     for k in from..rops.len() {
         let Some(t) = turns[k] else { continue };
-        // Only turns that had nothing to compare with their predecessor: an
-        // ambiguous match stays a fallback.
-        if !(t.fallback && t.evidence == Evidence::NoOverlap) {
+        // Turns that had nothing to compare with their predecessor, or
+        // were verified on it (an ambiguous match stays a fallback).
+        let no_overlap = t.fallback && t.evidence == Evidence::NoOverlap;
+        if t.fallback && !no_overlap {
             continue;
         }
         let heading: Vec<f64> = turns[..k]
@@ -314,6 +320,9 @@ fn rematch_after_loop(
             .filter(|(_, d)| d.abs() <= max_turn)
             .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
         let Some((j, relative)) = nearest else { continue };
+        if !no_overlap && relative.abs() >= t.turn_rad.abs() {
+            continue;
+        }
         let m = match_turn(&rops[j], &rops[k], relative, &config.matching);
         if !m.fallback {
             // On the command's branch of the circle.
@@ -697,6 +706,39 @@ mod tests {
         for k in (1..12).filter(|&k| k != 7) {
             assert_ne!(sweep.turns[k].unwrap().evidence, Evidence::Loop);
         }
+    }
+
+    /// After the loop (closed by the frame at 342.5°), a turn of 46° leaves
+    /// 14° of overlap with the frame before, but the frame faces 5° from
+    /// the sweep's second one: it is matched against that, and its turn
+    /// comes from there.
+    #[test]
+    fn a_frame_after_the_loop_is_matched_against_the_frame_it_faces() {
+        let true_turns_deg = [
+            2.0, 31.5, 28.0, 33.0, 29.0, 27.5, 32.0, 30.5, 29.5, 31.0, 28.5, 40.0, 46.0,
+        ];
+        let mut heading = 0.0;
+        let (mut rops, mut cmds) = (Vec::new(), Vec::new());
+        for (k, t) in true_turns_deg.iter().enumerate() {
+            heading += f64::to_radians(*t);
+            rops.push(view(heading));
+            cmds.push((k > 0).then_some(f64::to_radians(match k {
+                11 => 40.0,
+                12 => 44.0,
+                _ => 30.0,
+            })));
+        }
+        let sweep = assemble(&rops, &cmds, &SweepConfig::default());
+        assert_eq!(sweep.closure.map(|c| (c.frame, c.applied)), Some((11, true)));
+        assert!(
+            sweep.links.contains(&(1, 12)) && !sweep.links.contains(&(11, 12)),
+            "{:?}",
+            sweep.links
+        );
+        let t = sweep.turns[12].unwrap();
+        assert!(!t.fallback, "{t:?}");
+        let err = t.turn_rad.to_degrees() - 46.0;
+        assert!(err.abs() < 0.3, "error {err}");
     }
 
     /// A 1.5 m × 1.3 m room with two boxes, as wall segments.
