@@ -284,8 +284,9 @@ fn spread_residual(
 /// compare with their predecessor, and those whose verified turn is wider
 /// than their heading's distance from that frame (it overlaps them more
 /// than the predecessor did, and a match on a narrow overlap may be
-/// wrong). A re-match that verifies replaces the turn. Returns the links
-/// `(j, k)` of the re-matched frames.
+/// wrong). A re-match that verifies replaces the turn, unless it confirms
+/// a verified one (within half a basin, [`MatchConfig::basin_rad`]).
+/// Returns the links `(j, k)` of the re-matched frames.
 fn rematch_after_loop(
     rops: &[Rop],
     turns: &mut [Option<TurnEstimate>],
@@ -324,9 +325,13 @@ fn rematch_after_loop(
             continue;
         }
         let m = match_turn(&rops[j], &rops[k], relative, &config.matching);
-        if !m.fallback {
-            // On the command's branch of the circle.
-            let turn = t.turn_rad + wrap(heading[j] + m.turn_rad - heading[k - 1] - t.turn_rad);
+        // On the command's branch of the circle.
+        let turn = t.turn_rad + wrap(heading[j] + m.turn_rad - heading[k - 1] - t.turn_rad);
+        // A verified turn that the wider overlap confirms (within half a
+        // basin) stays as matched, its link and shift with it; one it
+        // contradicts was a wrong minimum.
+        let confirmed = !no_overlap && (turn - t.turn_rad).abs() <= config.matching.basin_rad / 2.0;
+        if !m.fallback && !confirmed {
             // (The shift was measured from frame `j`, not the one before.)
             turns[k] = Some(TurnEstimate {
                 turn_rad: turn,
@@ -710,8 +715,10 @@ mod tests {
 
     /// After the loop (closed by the frame at 342.5°), a turn of 46° leaves
     /// 14° of overlap with the frame before, but the frame faces 5° from
-    /// the sweep's second one: it is matched against that, and its turn
-    /// comes from there.
+    /// the sweep's second one. Matched there, a verified turn within half
+    /// a basin of the re-match stays as it is; one 6° off (a wrong minimum
+    /// on the narrow overlap) is replaced by the re-match, linked to that
+    /// frame.
     #[test]
     fn a_frame_after_the_loop_is_matched_against_the_frame_it_faces() {
         let true_turns_deg = [
@@ -728,17 +735,29 @@ mod tests {
                 _ => 30.0,
             })));
         }
-        let sweep = assemble(&rops, &cmds, &SweepConfig::default());
+        let config = SweepConfig::default();
+        let sweep = assemble(&rops, &cmds, &config);
         assert_eq!(sweep.closure.map(|c| (c.frame, c.applied)), Some((11, true)));
-        assert!(
-            sweep.links.contains(&(1, 12)) && !sweep.links.contains(&(11, 12)),
-            "{:?}",
-            sweep.links
-        );
-        let t = sweep.turns[12].unwrap();
-        assert!(!t.fallback, "{t:?}");
-        let err = t.turn_rad.to_degrees() - 46.0;
-        assert!(err.abs() < 0.3, "error {err}");
+        let measured = sweep.turns[12].unwrap();
+        assert!(!measured.fallback, "{measured:?}");
+        for (turn_deg, replaced) in [(46.1f64, false), (40.0, true)] {
+            let mut turns = sweep.turns.clone();
+            let given = TurnEstimate {
+                turn_rad: turn_deg.to_radians(),
+                ..measured
+            };
+            turns[12] = Some(given);
+            let links = rematch_after_loop(&rops, &mut turns, 12, &config);
+            let t = turns[12].unwrap();
+            if replaced {
+                assert_eq!(links, [(1, 12)]);
+                let err = t.turn_rad.to_degrees() - 46.0;
+                assert!(!t.fallback && err.abs() < 0.3, "error {err}");
+            } else {
+                assert!(links.is_empty(), "{links:?}");
+                assert_eq!(t, given);
+            }
+        }
     }
 
     /// A 1.5 m × 1.3 m room with two boxes, as wall segments.
