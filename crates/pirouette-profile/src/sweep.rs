@@ -251,10 +251,13 @@ fn spread_residual(
         .flatten();
     // With the candidates in, the residual is the distance of their sum
     // from where the loop puts it.
-    let picked = with_candidates
-        .filter(|with| wrap(residual_of(with)).abs() <= config.matching.basin_rad / 2.0)
-        .map(|with| measured = with)
-        .is_some();
+    let picked = match with_candidates {
+        Some(with) if wrap(residual_of(&with)).abs() <= config.matching.basin_rad / 2.0 => {
+            measured = with;
+            true
+        }
+        _ => false,
+    };
     let residual = residual_of(&measured);
     let total_var = measured.iter().flatten().map(|m| m.1).sum::<f64>() + var(closing);
     let applied = residual.abs() <= config.max_residual_sigmas * total_var.sqrt();
