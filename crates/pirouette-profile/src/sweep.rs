@@ -144,8 +144,13 @@ pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfi
         None
     };
     let mut links: Vec<(usize, usize)> = Vec::new();
-    if let Some(c) = closure.filter(|c| c.applied) {
-        links.push((0, c.frame));
+    if let Some(c) = closure {
+        if c.applied {
+            links.push((0, c.frame));
+        }
+        // The frames after the one nearest to coming round, whether or not
+        // the closing match verified: their headings rest on the verified
+        // turns before them either way.
         links.extend(rematch_after_loop(rops, &mut turns, c.frame + 1, config));
     }
     for (k, t) in turns.iter().enumerate().skip(1) {
@@ -761,6 +766,42 @@ mod tests {
                 assert_eq!(t, given);
             }
         }
+    }
+
+    /// The first frame saw nothing (open floor), so neither its turn nor
+    /// the closing match verifies and the loop stays open; the frame after
+    /// it, turned back by 97° (wider than the view), is still matched
+    /// against the frame it faces, whose heading the verified turns since
+    /// the last fallback (before frame 7) give.
+    #[test]
+    fn frames_after_an_open_loop_are_matched_against_the_frame_they_face() {
+        let true_turns_deg = [
+            2.0, 31.5, 28.0, 33.0, 29.0, 27.5, 32.0, 30.5, 29.5, 31.0, 28.5, 40.0, -97.0,
+        ];
+        let mut heading = 0.0;
+        let (mut rops, mut cmds) = (Vec::new(), Vec::new());
+        for (k, t) in true_turns_deg.iter().enumerate() {
+            heading += f64::to_radians(*t);
+            let mut rop = view(heading);
+            if k == 0 {
+                rop.range_m.iter_mut().for_each(|r| *r = f32::INFINITY);
+            }
+            rops.push(rop);
+            cmds.push((k > 0).then_some(f64::to_radians(match k {
+                11 => 40.0,
+                12 => -95.0,
+                _ => 30.0,
+            })));
+        }
+        let sweep = assemble(&rops, &cmds, &SweepConfig::default());
+        let closure = sweep.closure.expect("frame 11 comes nearest to round");
+        assert!(closure.frame == 11 && !closure.applied, "{closure:?}");
+        assert!(sweep.turns[1].unwrap().fallback);
+        let t = sweep.turns[12].unwrap();
+        assert!(!t.fallback, "{t:?}");
+        assert!(sweep.links.contains(&(8, 12)), "{:?}", sweep.links);
+        let err = t.turn_rad.to_degrees() + 97.0;
+        assert!(err.abs() < 0.3, "error {err}");
     }
 
     /// A 1.5 m × 1.3 m room with two boxes, as wall segments.
