@@ -534,10 +534,11 @@ mod tests {
     }
 
     /// Eleven turns of 30° and a closing match of 30°, exact; verified
-    /// turns measured 0.1° long. Spreads the residual and checks the least
-    /// squares: each turn at `entered` (degrees, the ambiguous ones', in
-    /// order) minus its variance's share of the residual. Returns the
-    /// turns.
+    /// turns measured 0.1° long, `ambiguous` ones in their places. Spreads
+    /// the residual and checks the least squares: each turn where it
+    /// entered (for the ambiguous ones, in order, `entered`: angle and
+    /// variance, degrees and square degrees) minus its variance's share of
+    /// the residual. Returns the turns.
     fn close_and_check(
         ambiguous: &[(usize, TurnEstimate)],
         entered: &[(f64, f64)],
