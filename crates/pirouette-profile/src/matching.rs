@@ -147,8 +147,8 @@ pub enum Evidence {
     RangeAndColour,
     /// An unverified turn of a closed pirouette that the loop fixed: its
     /// only one (the closing match and the loop's other turns, all
-    /// verified, fix it), or one of ambiguous matches whose basins the
-    /// loop picked (see [`crate::sweep::assemble`]).
+    /// verified, fix it), or one of its ambiguous turns whose best
+    /// matches' basins the loop picked (see [`crate::sweep::assemble`]).
     Loop,
     /// Fallback: the profiles overlap too little in the window.
     NoOverlap,
