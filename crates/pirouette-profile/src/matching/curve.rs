@@ -193,11 +193,15 @@ pub(super) fn cost_curve(
         curve.informative[j] = n_info as usize;
         curve.colour_pairs[j] = n_colour as usize;
         curve.colour_cost[j] = colour_cost;
-        curve.cost[j] = if n_info == 0 {
-            0.0
-        } else {
-            (range_cost + config.colour_weight as f64 * colour_cost as f64) / n_info as f64
-        };
+        // The sum now, the mean below.
+        curve.cost[j] = range_cost + config.colour_weight as f64 * colour_cost as f64;
+    }
+    // The means, in a loop of their own: divisions issued back to back
+    // overlap, where one at the end of each shift's pass held it up.
+    for (cost, &n) in curve.cost.iter_mut().zip(&curve.informative) {
+        if cost.is_finite() {
+            *cost = if n == 0 { 0.0 } else { *cost / n as f64 };
+        }
     }
     curve.any_informative = curve.informative.iter().any(|&n| n > 0);
     curve

@@ -78,6 +78,9 @@ pub(super) fn refine_with_shift(
         })
         .collect();
     let (start, w) = (before.bearing_start_rad, before.bin_width_rad);
+    // Reciprocals taken once: a point's residual then divides only for its
+    // inverse range (a division costs several multiplications' time).
+    let (inv_w, inv_sigma) = (1.0 / w, 1.0 / sigma_inv);
     // A point's residual in units of `sigma_inv` at turn `theta0 + x[0]`
     // and shift `(x[1], x[2])`, with its derivatives in those three:
     // against `before`'s inverse range interpolated between bin centres
@@ -87,7 +90,7 @@ pub(super) fn refine_with_shift(
     let residual = |p: &Point, x: &[f64; 3]| -> Option<(f64, [f64; 3])> {
         let d_bearing = [1.0, p.d_bearing[0], p.d_bearing[1]];
         let bearing = p.bearing + x[0] + x[1] * d_bearing[1] + x[2] * d_bearing[2];
-        let u = (bearing - start) / w;
+        let u = (bearing - start) * inv_w;
         // (NaN falls outside too.)
         if u.is_nan() || u < 0.0 {
             return None;
@@ -108,13 +111,13 @@ pub(super) fn refine_with_shift(
                 if a > 0.0 && b > 0.0 {
                     let f = v - j0 as f64;
                     let expect = (1.0 - f) * a + f * b;
-                    let slope = (b - a) / w;
+                    let slope = (b - a) * inv_w;
                     let de = [
-                        (d_inv[0] - slope * d_bearing[0]) / sigma_inv,
-                        (d_inv[1] - slope * d_bearing[1]) / sigma_inv,
-                        (d_inv[2] - slope * d_bearing[2]) / sigma_inv,
+                        (d_inv[0] - slope * d_bearing[0]) * inv_sigma,
+                        (d_inv[1] - slope * d_bearing[1]) * inv_sigma,
+                        (d_inv[2] - slope * d_bearing[2]) * inv_sigma,
                     ];
-                    return Some(((inv - expect) / sigma_inv, de));
+                    return Some(((inv - expect) * inv_sigma, de));
                 }
             }
         }
@@ -125,8 +128,8 @@ pub(super) fn refine_with_shift(
         } else {
             return Some((0.0, [0.0; 3]));
         };
-        let s = sign / sigma_inv;
-        Some((e / sigma_inv, [d_inv[0] * s, d_inv[1] * s, d_inv[2] * s]))
+        let s = sign * inv_sigma;
+        Some((e * inv_sigma, [d_inv[0] * s, d_inv[1] * s, d_inv[2] * s]))
     };
     let prior = 1.0 / (shift_sigma_m * shift_sigma_m);
     // The shift a turn by `theta0` about the pivot makes: `(I − R)·pivot`.
