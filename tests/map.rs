@@ -207,9 +207,21 @@ fn shared_datasets_map_far_better_than_the_commands() {
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
     // The targets: ATE within 2 cm on the field and 4 cm in the
-    // office, F1 at least 0.9 and 95 % of the true-pose map's (the office
-    // measures 0.97 and 98.6 %, see BENCHMARKS.md).
-    for (name, max_ate_m) in [("field-multi", 0.02), ("office-multi", 0.04)] {
+    // office, F1 at least 0.9 and 95 % of the true-pose map's. The office's
+    // map in its first frame's coordinates is not held to the 95 %: it
+    // measures 91.5-97.2 % of the true-pose map's under rounding-level
+    // changes to its inputs, as the first frame's heading comes out a few
+    // tenths of a degree either way and turns the whole map with it
+    // (BENCHMARKS.md, "How much a map moves when nothing changes"). Its
+    // shape, the map after the best-fit alignment, measures 98.0-99.0 %.
+    // office-multi-b, the office on another trajectory, is held to the
+    // office's figures too.
+    let sets = [
+        ("field-multi", 0.02, 0.95),
+        ("office-multi", 0.04, 0.9),
+        ("office-multi-b", 0.04, 0.9),
+    ];
+    for (name, max_ate_m, min_ratio) in sets {
         let root = shared.join("datasets").join(name);
         let r = map_and_eval(&root, &dir.path().join(name));
         eprintln!("{name}: {r}");
@@ -217,10 +229,14 @@ fn shared_datasets_map_far_better_than_the_commands() {
         assert!(ate <= max_ate_m, "{name}: ATE {ate} m");
         assert!(ate * 10.0 < num(&r, &["commanded", "ate_aligned_m"]), "{name}");
         assert!(num(&r, &["map", "f1"]) >= 0.9, "{name}: {}", r["map"]);
-        assert!(num(&r, &["f1_ratio"]) >= 0.95, "{name}: {r}");
+        assert!(num(&r, &["f1_ratio"]) >= min_ratio, "{name}: {r}");
+        assert!(num(&r, &["f1_ratio_aligned"]) >= 0.95, "{name}: {r}");
+        // Every frame's heading: the turns toward the next spot that the
+        // commands got wrong by 8-17° are found.
+        assert!(num(&r, &["trajectory", "heading_rmse_deg"]) < 1.0, "{name}: {r}");
         checked += 1;
     }
-    assert_eq!(checked, 2);
+    assert_eq!(checked, 3);
 }
 
 #[test]

@@ -38,8 +38,18 @@ pub(super) fn chain_headings<'f>(
     let cur = placed.heading_rad.clone();
     let sigma_cmd = config.sweep.commanded_sigma_rad;
     let sigma_ver = config.sweep.verified_sigma_rad;
-    // A frame's own registration searches as far as one command errs.
-    let anchor_window = sigma_cmd;
+    // A frame's own registration searches as far as one command errs: the
+    // command of the turn into it where no verified link reaches it, a
+    // pirouette's turn's otherwise.
+    let measured = &sweep.sweep.heading_rad;
+    let reached = |k: usize| sweep.sweep.links.iter().any(|&(_, b)| b == k);
+    let anchor_window = |k: usize| {
+        if k == 0 || reached(k) {
+            sigma_cmd
+        } else {
+            config.command_sigma(measured[k] - measured[k - 1])
+        }
+    };
     // Each frame's registration is independent of the others': in parallel,
     // collected in frame order.
     let placed_now: &Placed = placed;
@@ -55,11 +65,11 @@ pub(super) fn chain_headings<'f>(
             mean: placed_now.frame_pose(k),
             sigma_forward_m: TURN_SHIFT_M,
             sigma_left_m: TURN_SHIFT_M,
-            sigma_theta_rad: anchor_window,
+            sigma_theta_rad: anchor_window(k),
         };
         let reg = register(field(k), &pts, &prior, &config.turn)?;
         let sd = reg.covariance[(2, 2)].sqrt().max(sigma_ver);
-        Ok((reg.accepted && sd < anchor_window / 2.0).then(|| {
+        Ok((reg.accepted && sd < anchor_window(k) / 2.0).then(|| {
             (
                 k,
                 heading + pirouette_geom::wrap_angle(reg.pose.theta - prior.mean.theta),
@@ -74,7 +84,9 @@ pub(super) fn chain_headings<'f>(
         .into_iter()
         .flatten()
         .collect();
-    let links = chain_links(&sweep.sweep.heading_rad, &sweep.sweep.links, sigma_ver, sigma_cmd);
+    let links = chain_links(measured, &sweep.sweep.links, sigma_ver, |turn| {
+        config.command_sigma(turn)
+    });
     if let Some(x) = solve_chain(&cur, &links, anchors) {
         placed.heading_rad = x;
     }
@@ -84,7 +96,7 @@ pub(super) fn chain_headings<'f>(
 /// The links of a sweep's heading chain, `(i, j, heading j − heading i,
 /// σ)`: its verified links (`links`) to `sigma_ver`, and every frame no
 /// verified link reaches joined to the one before it by its fallback turn,
-/// to `sigma_cmd`. The differences are those of `measured`, the headings as
+/// to `sigma_cmd` of that turn's angle. The differences are those of `measured`, the headings as
 /// the sweep measured them, never of a later solution: solved again and
 /// again from the last solution's differences, the links would give way a
 /// little to the anchors each time, and one wrong anchor would end up
@@ -93,7 +105,7 @@ pub(super) fn chain_links(
     measured: &[f64],
     links: &[(usize, usize)],
     sigma_ver: f64,
-    sigma_cmd: f64,
+    sigma_cmd: impl Fn(f64) -> f64,
 ) -> Vec<(usize, usize, f64, f64)> {
     let mut out: Vec<(usize, usize, f64, f64)> = links
         .iter()
@@ -101,7 +113,8 @@ pub(super) fn chain_links(
         .collect();
     for k in 1..measured.len() {
         if !links.iter().any(|&(_, b)| b == k) {
-            out.push((k - 1, k, measured[k] - measured[k - 1], sigma_cmd));
+            let turn = measured[k] - measured[k - 1];
+            out.push((k - 1, k, turn, sigma_cmd(turn)));
         }
     }
     out
@@ -179,11 +192,16 @@ mod tests {
                 .map(|&(i, j)| ((x[j] - x[i]) - (measured[j] - measured[i])).abs())
                 .fold(0.0, f64::max)
         };
-        let chain = chain_links(&measured, &links, ver, cmd);
+        let chain = chain_links(&measured, &links, ver, |_| cmd);
         let once = solve_chain(&measured, &chain, anchors.clone()).unwrap();
         let mut cur = once.clone();
         for _ in 0..10 {
-            cur = solve_chain(&cur, &chain_links(&measured, &links, ver, cmd), anchors.clone()).unwrap();
+            cur = solve_chain(
+                &cur,
+                &chain_links(&measured, &links, ver, |_| cmd),
+                anchors.clone(),
+            )
+            .unwrap();
         }
         assert!(bend(&once) > deg(0.05), "the anchor bends the chain at all");
         assert!(
@@ -198,7 +216,7 @@ mod tests {
         for _ in 0..10 {
             drifting = solve_chain(
                 &drifting,
-                &chain_links(&drifting, &links, ver, cmd),
+                &chain_links(&drifting, &links, ver, |_| cmd),
                 anchors.clone(),
             )
             .unwrap();

@@ -39,6 +39,20 @@ pub struct MapConfig {
     /// Registration also matches ranges beyond the soft limit, up to this
     /// many times it (1: none). They never enter the grid.
     pub far_reach: f64,
+    /// A commanded turn errs by this share of its angle where that is more
+    /// than [`SweepConfig::commanded_sigma_rad`] (one standard deviation):
+    /// odometry's rotation error grows with the rotation.
+    pub turn_error_frac: f64,
+}
+
+impl MapConfig {
+    /// The standard deviation of a commanded turn by `turn_rad` (see
+    /// [`MapConfig::turn_error_frac`]).
+    pub fn command_sigma(&self, turn_rad: f64) -> f64 {
+        self.sweep
+            .commanded_sigma_rad
+            .max(self.turn_error_frac * turn_rad.abs())
+    }
 }
 
 impl Default for MapConfig {
@@ -49,7 +63,9 @@ impl Default for MapConfig {
     /// error grows with the square of its range (one image row spans more
     /// floor the farther it is): at twice the limit it is four times the
     /// error at the limit, where profiles err by a few millimetres, so
-    /// still within the likelihood field's 1.5 cm.
+    /// still within the likelihood field's 1.5 cm. A commanded turn errs by
+    /// a tenth of its angle, at least the sweep settings' 3°: the 3° of a
+    /// pirouette's 30° turns in proportion.
     fn default() -> Self {
         let register = RegisterConfig::default();
         Self {
@@ -62,6 +78,7 @@ impl Default for MapConfig {
             motion: MotionNoise::default(),
             sweep: SweepConfig::default(),
             far_reach: 2.0,
+            turn_error_frac: 0.1,
         }
     }
 }
@@ -211,10 +228,27 @@ impl Placed {
             .collect()
     }
 
-    /// Fallback turns between block `b` and the reference block (at least
-    /// one: different blocks are parted by one).
-    fn fallbacks_between(&self, b: usize) -> f64 {
-        (b as f64 - self.reference as f64).abs().max(1.0)
+    /// The variance a heading in block `b` takes on relative to the
+    /// reference block from the fallback turns between them (the turns
+    /// into each block's first frame, as `sweep` measured them; at least
+    /// one turn's, a command's error, within the reference block).
+    fn fallback_var(&self, b: usize, sweep: &DatasetSweep, config: &MapConfig) -> f64 {
+        let r = self.reference;
+        if b == r {
+            return config.sweep.commanded_sigma_rad.powi(2);
+        }
+        let heading = &sweep.sweep.heading_rad;
+        (b.min(r) + 1..=b.max(r))
+            .map(|k| {
+                let first = self.blocks[k][0];
+                let turn = if first > 0 {
+                    heading[first] - heading[first - 1]
+                } else {
+                    0.0
+                };
+                config.command_sigma(turn).powi(2)
+            })
+            .sum()
     }
 }
 
@@ -580,10 +614,7 @@ fn last_frame(sweep: &DatasetSweep, placed: &Placed, config: &MapConfig) -> (usi
         .iter()
         .position(|b| b.contains(&last))
         .expect("in a block");
-    (
-        last,
-        config.sweep.commanded_sigma_rad.powi(2) * placed.fallbacks_between(last_block),
-    )
+    (last, placed.fallback_var(last_block, sweep, config))
 }
 
 /// The commanded forward move before a sweep, metres (0 without one).
