@@ -96,11 +96,11 @@ pub(super) fn chain_headings<'f>(
 /// The links of a sweep's heading chain, `(i, j, heading j − heading i,
 /// σ)`: its verified links (`links`) to `sigma_ver`, and every frame no
 /// verified link reaches joined to the one before it by its fallback turn,
-/// to `sigma_cmd` of that turn's angle. The differences are those of `measured`, the headings as
-/// the sweep measured them, never of a later solution: solved again and
-/// again from the last solution's differences, the links would give way a
-/// little to the anchors each time, and one wrong anchor would end up
-/// bending verified turns by degrees.
+/// to `sigma_cmd` of that turn's angle. The differences are those of
+/// `measured`, the headings as the sweep measured them, never of a later
+/// solution: solved again and again from the last solution's differences,
+/// the links would give way a little to the anchors each time, and one
+/// wrong anchor would end up bending verified turns by degrees.
 pub(super) fn chain_links(
     measured: &[f64],
     links: &[(usize, usize)],
