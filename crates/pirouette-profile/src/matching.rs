@@ -416,18 +416,20 @@ fn noise_cost_sd(measure: Measure) -> f64 {
 /// inverse-range residuals over the informative pairs at `shift`, each
 /// residual being the difference of two bins (so divided by √2).
 fn residual_sigma(a: &[Cell], b: &[Cell], shift: i64) -> Option<f32> {
+    // The gaps as their bit patterns: finite and not negative, they sort
+    // as the values do, and integers compare faster.
     let mut r = Vec::with_capacity(a.len());
     r.extend(a.iter().enumerate().filter_map(|(i, ca)| {
         let j = i as i64 + shift;
         let cb = *b.get(usize::try_from(j).ok()?)?;
-        (!ca.inv.is_nan() && !cb.inv.is_nan() && informative(ca, &cb)).then(|| gap(ca, &cb))
+        (!ca.inv.is_nan() && !cb.inv.is_nan() && informative(ca, &cb)).then(|| gap(ca, &cb).to_bits())
     }));
     if r.len() < 5 {
         return None;
     }
     let mid = r.len() / 2;
-    let (_, med, _) = r.select_nth_unstable_by(mid, f32::total_cmp);
-    Some(1.4826 * *med / std::f32::consts::SQRT_2)
+    let (_, med, _) = r.select_nth_unstable(mid);
+    Some(1.4826 * f32::from_bits(*med) / std::f32::consts::SQRT_2)
 }
 
 /// How much there is to align in the overlap at `shift`: every step of
