@@ -170,6 +170,25 @@ pub(super) fn solve_chain(
 mod tests {
     use super::*;
 
+    /// A fallback turn's link is as loose as its command errs: 3° for a
+    /// pirouette's 30° turn, a tenth of the angle for the wide turn toward
+    /// the next spot; verified links keep a match's accuracy.
+    #[test]
+    fn wide_fallback_turns_get_links_as_loose_as_their_commands() {
+        let config = MapConfig::default();
+        let deg = |d: f64| d.to_radians();
+        let measured = [0.0, deg(30.0), deg(60.0), deg(238.0)];
+        let links = chain_links(&measured, &[(0, 1)], deg(0.5), |t| config.command_sigma(t));
+        let sigma_into = |k: usize| {
+            let l: Vec<_> = links.iter().filter(|l| l.1 == k).collect();
+            assert_eq!(l.len(), 1, "one link into frame {k}");
+            l[0].3.to_degrees()
+        };
+        assert!((sigma_into(1) - 0.5).abs() < 1e-9, "verified");
+        assert!((sigma_into(2) - 3.0).abs() < 1e-9, "a 30° command");
+        assert!((sigma_into(3) - 17.8).abs() < 1e-9, "a 178° command");
+    }
+
     /// The mapping solves a sweep's headings again and again as its
     /// registration improves. Every solve weighs the turns as the sweep
     /// measured them, so the verified turns bend no further than one solve
