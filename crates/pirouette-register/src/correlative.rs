@@ -86,8 +86,13 @@ impl PosePrior {
 
     /// `−½ Δᵀ Σ⁻¹ Δ` of a candidate pose.
     fn log_density(&self, x: f64, y: f64, theta: f64) -> f64 {
+        self.log_density_turned(self.mean.theta.sin_cos(), x, y, theta)
+    }
+
+    /// [`PosePrior::log_density`] with the mean heading's `(sin, cos)`
+    /// given, for callers that evaluate many poses.
+    fn log_density_turned(&self, (s, c): (f64, f64), x: f64, y: f64, theta: f64) -> f64 {
         let (dx, dy) = (x - self.mean.x, y - self.mean.y);
-        let (s, c) = self.mean.theta.sin_cos();
         let forward = c * dx + s * dy;
         let left = -s * dx + c * dy;
         let dt = wrap_angle(theta - self.mean.theta);
@@ -240,8 +245,17 @@ pub fn register(
     let nt = (half_t / theta_step).ceil() as i64;
     let (sx, sy) = ((2 * nx + 1) as usize, (2 * ny + 1) as usize);
 
-    // Scores of the lattice, one slab of sx·sy per rotation.
-    let slabs: Vec<Vec<f32>> = (-nt..=nt)
+    let lattice = Lattice {
+        prior,
+        turned: prior.mean.theta.sin_cos(),
+        res,
+        theta_step,
+        nx,
+        ny,
+    };
+    // Scores of the lattice, one slab of sx·sy per rotation, each with its
+    // best pose (the first of equal scores).
+    let slabs: Vec<(Vec<f32>, LatticeBest)> = (-nt..=nt)
         .into_par_iter()
         .map(|kt| {
             let theta = prior.mean.theta + kt as f64 * theta_step;
@@ -254,29 +268,29 @@ pub fn register(
                     ((x / res).floor() as i64, (y / res).floor() as i64)
                 })
                 .collect();
-            lattice_slab(field, &cells, nx, ny)
-        })
-        .collect();
-
-    let mut best = (f64::NEG_INFINITY, 0i64, 0i64, 0i64);
-    let mut posterior: Vec<(f64, Vector3<f64>)> = Vec::with_capacity(slabs.len() * sx * sy);
-    for (t_idx, slab) in slabs.iter().enumerate() {
-        let kt = t_idx as i64 - nt;
-        let theta = prior.mean.theta + kt as f64 * theta_step;
-        for b in -ny..=ny {
-            for a in -nx..=nx {
-                let k = (b + ny) as usize * sx + (a + nx) as usize;
-                let (x, y) = (prior.mean.x + a as f64 * res, prior.mean.y + b as f64 * res);
-                let score = slab[k] as f64 + prior.log_density(x, y, theta);
+            let slab = lattice_slab(field, &cells, nx, ny);
+            let mut best = (f64::NEG_INFINITY, 0, 0, kt);
+            for (score, (a, b), _) in lattice.scores(&slab, kt) {
                 if score > best.0 {
                     best = (score, a, b, kt);
                 }
-                posterior.push((score, Vector3::new(x, y, theta)));
             }
-        }
-    }
-    let evaluated = posterior.len();
-    let covariance = lattice_covariance(&posterior, best.0, res, theta_step);
+            (slab, best)
+        })
+        .collect();
+    let best = slabs
+        .iter()
+        .map(|(_, best)| *best)
+        .fold((f64::NEG_INFINITY, 0, 0, 0), |b, s| if s.0 > b.0 { s } else { b });
+    // The posterior's moments in a second pass over the slabs: the poses
+    // are not stored (32 bytes each, hundreds of megabytes for a wide
+    // search).
+    let evaluated = slabs.len() * sx * sy;
+    let posterior = slabs
+        .iter()
+        .zip(-nt..=nt)
+        .flat_map(|((slab, _), kt)| lattice.scores(slab, kt).map(|(score, _, x)| (score, x)));
+    let covariance = lattice_covariance(posterior, best.0, res, theta_step);
 
     let start = Pose2::new(
         prior.mean.x + best.1 as f64 * res,
@@ -298,6 +312,49 @@ pub fn register(
         accepted: true,
         evaluated,
     })
+}
+
+/// A lattice pose's score and its steps `(a, b, kt)` (see [`Lattice`]).
+type LatticeBest = (f64, i64, i64, i64);
+
+/// The search lattice of [`register`]: translations `a·res`, `b·res`
+/// (`|a| ≤ nx`, `|b| ≤ ny`) and rotations `kt·theta_step` about the prior's
+/// mean.
+struct Lattice<'p> {
+    prior: &'p PosePrior,
+    /// The prior mean heading's `(sin, cos)`.
+    turned: (f64, f64),
+    res: f64,
+    theta_step: f64,
+    nx: i64,
+    ny: i64,
+}
+
+impl Lattice<'_> {
+    /// The poses of rotation `kt` with their posterior scores (the field's
+    /// `slab` plus the prior) and translation steps `(a, b)`, row-major in
+    /// `b`.
+    fn scores<'s>(
+        &'s self,
+        slab: &'s [f32],
+        kt: i64,
+    ) -> impl Iterator<Item = (f64, (i64, i64), Vector3<f64>)> + 's {
+        let (nx, ny) = (self.nx, self.ny);
+        let sx = (2 * nx + 1) as usize;
+        let mean = self.prior.mean;
+        (-ny..=ny).flat_map(move |b| {
+            (-nx..=nx).map(move |a| {
+                let k = (b + ny) as usize * sx + (a + nx) as usize;
+                let x = Vector3::new(
+                    mean.x + a as f64 * self.res,
+                    mean.y + b as f64 * self.res,
+                    mean.theta + kt as f64 * self.theta_step,
+                );
+                let score = slab[k] as f64 + self.prior.log_density_turned(self.turned, x[0], x[1], x[2]);
+                (score, (a, b), x)
+            })
+        })
+    }
 }
 
 /// The summed field value of the endpoint cells `cells` translated by every
@@ -338,7 +395,7 @@ fn lattice_slab(field: &LikelihoodField, cells: &[(i64, i64)], nx: i64, ny: i64)
 /// lattice's own quantisation (a uniform cell) added so that a sharp peak
 /// still has a honest, non-zero spread.
 fn lattice_covariance(
-    posterior: &[(f64, Vector3<f64>)],
+    posterior: impl IntoIterator<Item = (f64, Vector3<f64>)>,
     best: f64,
     res: f64,
     theta_step: f64,
