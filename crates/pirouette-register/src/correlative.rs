@@ -286,9 +286,12 @@ pub fn register(
     // are not stored (32 bytes each, hundreds of megabytes for a wide
     // search).
     let evaluated = slabs.len() * sx * sy;
+    // A rotation whose best pose is negligible beside the best of all adds
+    // nothing.
     let posterior = slabs
         .iter()
         .zip(-nt..=nt)
+        .filter(|((_, own), _)| own.0 - best.0 >= NEGLIGIBLE_LN)
         .flat_map(|((slab, _), kt)| lattice.scores(slab, kt).map(|(score, _, x)| (score, x)));
     let covariance = lattice_covariance(posterior, best.0, res, theta_step);
 
@@ -391,6 +394,15 @@ fn lattice_slab(field: &LikelihoodField, cells: &[(i64, i64)], nx: i64, ny: i64)
     slab
 }
 
+/// The smallest posterior weight `exp(score − best)` a lattice pose adds
+/// to the covariance with.
+const NEGLIGIBLE: f64 = 1e-9;
+
+/// A log weight below which a pose's weight is below [`NEGLIGIBLE`] with
+/// room to spare (`e⁻²¹·⁷² ≈ 3.7·10⁻¹⁰`): such poses are skipped without
+/// their `exp`, which leaves the sums exactly as they were.
+const NEGLIGIBLE_LN: f64 = -21.72;
+
 /// The covariance of the lattice's posterior `exp(score − best)`, with the
 /// lattice's own quantisation (a uniform cell) added so that a sharp peak
 /// still has a honest, non-zero spread.
@@ -404,8 +416,12 @@ fn lattice_covariance(
     let mut mean = Vector3::zeros();
     let mut second = Matrix3::zeros();
     for (score, x) in posterior {
+        // (Far below the best, no `exp` is needed to know.)
+        if score - best < NEGLIGIBLE_LN {
+            continue;
+        }
         let w = (score - best).exp();
-        if w < 1e-9 {
+        if w < NEGLIGIBLE {
             continue;
         }
         w_sum += w;
