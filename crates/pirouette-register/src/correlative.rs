@@ -546,6 +546,48 @@ mod tests {
             .collect()
     }
 
+    /// The posterior's covariance skips poses far below the best without
+    /// their `exp`, and the result is exactly that of the definition
+    /// (every pose weighed, those under [`NEGLIGIBLE`] left out).
+    #[test]
+    fn skipping_negligible_poses_leaves_the_covariance_exact() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let poses: Vec<(f64, Vector3<f64>)> = (0..4000)
+            .map(|_| {
+                // Log weights from 0 down to −40: some skipped unseen, some
+                // weighed and dropped, most kept.
+                let score = 3.0 - rng.random_range(0.0..40.0f64).powf(1.3).min(40.0);
+                let x = Vector3::new(
+                    rng.random_range(-0.1..0.1),
+                    rng.random_range(-0.1..0.1),
+                    rng.random_range(-0.2..0.2),
+                );
+                (score, x)
+            })
+            .collect();
+        let best = poses.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+        assert!(poses.iter().any(|p| p.0 - best < NEGLIGIBLE_LN));
+        let (res, step) = (0.01, 0.004);
+        let got = lattice_covariance(poses.iter().copied(), best, res, step);
+        let (mut w_sum, mut mean, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
+        for (score, x) in &poses {
+            let w = (score - best).exp();
+            if w >= NEGLIGIBLE {
+                w_sum += w;
+                mean += w * x;
+                second += w * x * x.transpose();
+            }
+        }
+        mean /= w_sum;
+        let cov = second / w_sum - mean * mean.transpose();
+        let quant = Matrix3::from_diagonal(&Vector3::new(
+            res * res / 12.0,
+            res * res / 12.0,
+            step * step / 12.0,
+        ));
+        assert_eq!(got, 0.5 * (cov + cov.transpose()) + quant);
+    }
+
     #[test]
     fn recovers_a_pose_far_off_its_prior() {
         let world = room();
