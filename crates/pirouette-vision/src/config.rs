@@ -67,7 +67,9 @@ pub struct VisionConfig {
     /// How fast the floor reference's level follows the floor up a column,
     /// per row.
     pub adapt_rate: f32,
-    /// How fast the floor reference's trend (change per row) follows.
+    /// How fast the floor reference's trend (change per row) follows; over
+    /// rows not floor the trend fades at the same rate, so coasting moves
+    /// the reference by at most `trend / trend_rate`.
     pub trend_rate: f32,
     /// Share of non-floor rows needed over a candidate obstacle's expected
     /// height.
@@ -117,7 +119,11 @@ impl Default for VisionConfig {
     ///   noise test's five standard deviations), where 0.6 lies three;
     /// - `adapt_rate`: 0.25 per row (a memory of about four rows);
     /// - `trend_rate`: 0.1 per row: the brightness trend of the floor
-    ///   (vignetting, light fall-off) changes slowly;
+    ///   (vignetting, light fall-off) changes slowly. A trend learnt over
+    ///   about ten rows is trusted for about as many: coasting over a speck
+    ///   or a strip of tape, the reference moves by at most ten rows' worth
+    ///   of it, where a floor that brightens fast at the image's bottom and
+    ///   then levels off would leave a steady trend far above the floor;
     /// - `run_fraction`: 0.75, tolerating noise inside an obstacle;
     /// - `filter`: the robust 3-bin median.
     fn default() -> Self {

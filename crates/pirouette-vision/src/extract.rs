@@ -1087,6 +1087,44 @@ mod tests {
         assert!((0..rop.len()).all(|i| rop.reliable(i).is_none()));
     }
 
+    /// A floor half as bright in the bottom rows as higher up, brightening
+    /// fast and then levelling off (the dark bottom of a vignetted image),
+    /// crossed just above the seed rows by a strip of grey tape 16 rows
+    /// tall, half the rows a 2 cm obstacle would span there. A track
+    /// coasting over the tape along the steep trend it learnt below would
+    /// predict a floor far brighter than the one above it and never find
+    /// the floor again (every column then found the tape an obstacle).
+    /// Coasting, the trend fades at the rate it is learnt, so the floor
+    /// above the tape is floor.
+    #[test]
+    fn tape_where_the_floor_levels_off_is_floor() {
+        let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
+            let l = 100.0 - 50.0 * (-((239 - v) as f32) / 10.0).exp();
+            image::Rgb([l as u8, (l * 0.93) as u8, (l * 0.85) as u8])
+        });
+        let tape = 207..223;
+        for u in 0..320 {
+            for v in tape.clone() {
+                img.put_pixel(u, v, image::Rgb([150, 150, 150]));
+            }
+        }
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        let run = ex.run_rows[(tape.end as usize - 1) * 320 + 160];
+        assert!(run as usize >= 2 * tape.len(), "{run}");
+        let b = ex.boundaries(&img).unwrap();
+        let found: Vec<_> = b
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !matches!(c, ColumnBoundary::Clear { .. }))
+            .collect();
+        assert!(
+            found.is_empty(),
+            "{} columns, first {:?}",
+            found.len(),
+            found.first()
+        );
+    }
+
     /// A dark floor in plain noise (σ 2.5 levels a channel at a level of
     /// 14, as in a dim field's bottom rows), brightening upwards: a seed's
     /// slope fitted through its own six rows is off by 1.5 σ in some of

@@ -166,8 +166,10 @@ impl FloorTrack {
     }
 
     /// One row: takes in pixel `p` when it is `floor` (Holt's update of
-    /// level and trend), otherwise coasts along the trend. The same
-    /// arithmetic as the lock-step update.
+    /// level and trend), otherwise coasts along the trend while the trend
+    /// fades by `trend_rate` (Holt's update of the trend with no change
+    /// seen), so that coasting over many rows moves the level by at most
+    /// `trend / trend_rate`. The same arithmetic as the lock-step update.
     pub fn step(&mut self, p: &[f32; 3], floor: bool, rate: f32, trend_rate: f32) {
         for c in 0..3 {
             let pred = self.level[c] + self.trend[c];
@@ -177,6 +179,7 @@ impl FloorTrack {
                 self.level[c] = taken;
             } else {
                 self.level[c] = pred;
+                self.trend[c] += trend_rate * -self.trend[c];
             }
         }
     }
@@ -534,15 +537,16 @@ fn step_blocks(
             block.faint_steady[i] = faint_close;
         }
         block.trend_before = block.trend;
-        // Weights 1 (take the pixel in) or 0 (coast): the choice as
-        // arithmetic, which gives the same values and vectorises.
+        // Weights 1 (take the pixel in) or 0 (coast, the trend fading):
+        // the choice as arithmetic, which gives the same values as
+        // `FloorTrack::step` and vectorises.
         let take = floor.map(|f| f as f32);
         for c in 0..3 {
             for i in 0..BLOCK {
                 let (level, trend) = (block.level[c][i], block.trend[c][i]);
                 let pred = block.predicted[c][i];
                 let taken = pred + (take[i] * rate) * (pixel[c][i] - pred);
-                block.trend[c][i] = trend + (take[i] * trend_rate) * (taken - level - trend);
+                block.trend[c][i] = trend + trend_rate * (take[i] * (taken - level) - trend);
                 block.level[c][i] = taken;
             }
         }
@@ -683,6 +687,39 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// Coasting n rows from level `l` with trend `t` reaches
+    /// `l + t (1 - (1 - r)^n) / r`: never more than `t / r` from `l`.
+    /// Taking a pixel in is Holt's update.
+    #[test]
+    fn coasting_fades_the_trend_and_taking_in_is_holts_update() {
+        let (r, rate) = (0.1f32, 0.25f32);
+        let mut track = FloorTrack {
+            level: [100.0, 50.0, 10.0],
+            trend: [2.0, -1.0, 0.0],
+        };
+        for _ in 0..40 {
+            track.step(&[0.0; 3], false, rate, r);
+        }
+        for c in 0..3 {
+            let (l, t) = ([100.0f64, 50.0, 10.0][c], [2.0f64, -1.0, 0.0][c]);
+            let want = l + t * (1.0 - 0.9f64.powi(40)) / 0.1;
+            assert!(
+                (track.level[c] as f64 - want).abs() < 1e-3,
+                "{c}: {} {want}",
+                track.level[c]
+            );
+            assert!((track.trend[c] as f64 - t * 0.9f64.powi(40)).abs() < 1e-5);
+            assert!((track.level[c] as f64 - l).abs() <= t.abs() / 0.1);
+        }
+        let mut t = FloorTrack {
+            level: [100.0; 3],
+            trend: [2.0; 3],
+        };
+        t.step(&[110.0; 3], true, rate, r);
+        // Predicted 102, taken 102 + 0.25 × 8 = 104, trend 2 + 0.1 × (4 - 2).
+        assert_eq!((t.level[0], t.trend[0]), (104.0, 2.2));
+    }
 
     #[test]
     fn loaded_rows_are_the_smoothed_pixels() {
