@@ -378,7 +378,15 @@ impl RopExtractor {
             // A step of brightness alone, tested with its tolerances and
             // texture ratio.
             let brightness_step = |u: usize, test: (&Classifier, f32)| {
-                !past_top[u] && self.bright_edge_confirms(px, u as u32, v, test, grey_sigma)
+                !past_top[u]
+                    && self.bright_edge_confirms(
+                        px,
+                        u as u32,
+                        v,
+                        test,
+                        grey_sigma,
+                        (&lanes.predicted(u), &classifier),
+                    )
             };
             let bright_edges = (self.config.texture_ratio > 0.0)
                 .then(|| lanes.bright_edge_columns(cols.clone()))
@@ -564,14 +572,28 @@ mod tests {
                 && !steady
                 && steady_below
                 && ex.config.texture_ratio > 0.0
-                && ex.bright_edge_confirms(px, u, v, (&both, ex.config.texture_ratio), grey_sigma)
+                && ex.bright_edge_confirms(
+                    px,
+                    u,
+                    v,
+                    (&both, ex.config.texture_ratio),
+                    grey_sigma,
+                    (&pred, &classifier),
+                )
             {
                 return ex.refine(px, u, v, pred, track.trend);
             } else if steady
                 && !faint_steady
                 && faint_below
                 && ex.config.faint_steps()
-                && ex.bright_edge_confirms(px, u, v, (&faint, ex.config.faint_texture_ratio), grey_sigma)
+                && ex.bright_edge_confirms(
+                    px,
+                    u,
+                    v,
+                    (&faint, ex.config.faint_texture_ratio),
+                    grey_sigma,
+                    (&pred, &classifier),
+                )
             {
                 return ex.refine(px, u, v, pred, track.trend);
             }
@@ -1123,6 +1145,39 @@ mod tests {
             found.len(),
             found.first()
         );
+    }
+
+    /// Just above a bright speck on a grained floor, a step of brightness
+    /// alone looks like a smooth wall's base when the rows below are taken
+    /// as the floor: the speck is level and far from the floor above, and
+    /// its edges are more "texture" than the grain. The rows below must be
+    /// the floor the scan followed up to the step; a speck is not.
+    #[test]
+    fn the_floor_below_a_brightness_step_is_the_floor_followed() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let floor = [100.0f32, 93.0, 85.0];
+        let mut img = image::RgbImage::from_fn(320, 240, |_, _| {
+            let g = rng.random_range(-4.0f32..4.0);
+            image::Rgb(floor.map(|c| (c + g).round() as u8))
+        });
+        let speck = [150u8; 3];
+        for u in 150..162 {
+            for v in 205..220 {
+                img.put_pixel(u, v, image::Rgb(speck));
+            }
+        }
+        let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+        let px = img.as_raw();
+        let classifier = ex.classifier(noise_sigma(px, 320, 240));
+        let both = classifier.scaled_both(ex.config.edge_fraction);
+        let grey_sigma = grey_noise_sigma(px, 320, 240);
+        let test = (&both, ex.config.texture_ratio);
+        let speck_level = speck.map(|c| c as f32);
+        // Following the floor, the step is no wall's base.
+        assert!(!ex.bright_edge_confirms(px, 156, 204, test, grey_sigma, (&floor, &classifier)));
+        // Had the scan followed the speck, every other test would have
+        // passed: the rows below are what rejects it.
+        assert!(ex.bright_edge_confirms(px, 156, 204, test, grey_sigma, (&speck_level, &classifier)));
     }
 
     /// A dark floor in plain noise (σ 2.5 levels a channel at a level of

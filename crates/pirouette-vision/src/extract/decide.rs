@@ -78,7 +78,11 @@ impl RopExtractor {
     /// ([`VisionConfig::texture_ratio`](crate::VisionConfig::texture_ratio), or for a faint step
     /// [`VisionConfig::faint_texture_ratio`](crate::VisionConfig::faint_texture_ratio)),
     /// both counted beyond the sensor noise (`grey_sigma`, of one pixel's
-    /// grey), and the floor's must stand out of that noise.
+    /// grey), and the floor's must stand out of that noise. That level must
+    /// also be the floor the scan followed up to the step: floor by the
+    /// scan's own test (`floor_test`) against the floor it predicted there
+    /// (`followed`). Just above a speck or a strip of tape, the rows below
+    /// are the speck, not the floor.
     pub(super) fn bright_edge_confirms(
         &self,
         px: &[u8],
@@ -86,6 +90,7 @@ impl RopExtractor {
         v: u32,
         (both, ratio): (&Classifier, f32),
         grey_sigma: f32,
+        (followed, floor_test): (&[f32; 3], &Classifier),
     ) -> bool {
         let (m, n) = (self.width, self.height);
         // The floor's level and texture are judged over two windows below
@@ -104,6 +109,9 @@ impl RopExtractor {
         let Some(floor) = median_of(level_rows.map(|w| smoothed(px, m, u, w))) else {
             return false;
         };
+        if !floor_test.is_floor(&floor, followed) {
+            return false;
+        }
         let run = self.run_rows[(v * m + u) as usize].max(1) as u32;
         let lo = (v + 1).saturating_sub(run);
         // Rows off the floor, counted up from the step until the run can
