@@ -362,7 +362,7 @@ impl RopExtractor {
                         // This row is one of the column's rows not floor.
                         off_before: lanes.off_rows(u) - 1,
                         floor: lanes.predicted(u),
-                        trend: lanes.coasted(u).trend,
+                        trend: lanes.trend_before(u),
                         edge: false,
                     },
                 );
@@ -373,7 +373,8 @@ impl RopExtractor {
             // their runs at once, queued only when they are an obstacle's
             // base.
             let chroma_edges = lanes.edge_columns(cols.clone()).filter(|&u| {
-                !past_top[u] && self.edge_confirms(px, u as u32, v, lanes.coasted(u), &edge_classifier)
+                !past_top[u]
+                    && self.edge_confirms(px, u as u32, v, lanes.coasted(u, trend_rate), &edge_classifier)
             });
             // A step of brightness alone, tested with its tolerances and
             // texture ratio.
@@ -408,7 +409,7 @@ impl RopExtractor {
                         lo: v,
                         off_before: lanes.off_rows(u),
                         floor: lanes.predicted(u),
-                        trend: lanes.coasted(u).trend,
+                        trend: lanes.trend_before(u),
                         edge: true,
                     },
                 );

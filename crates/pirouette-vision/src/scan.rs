@@ -303,21 +303,27 @@ impl Lanes {
     }
 
     /// Column `u`'s track as it would be after coasting over the row last
-    /// classified (its prediction, with the trend it had before that row).
-    pub fn coasted(&self, u: usize) -> FloorTrack {
-        let (block, i) = (&self.blocks[u / BLOCK], u % BLOCK);
-        FloorTrack {
-            level: [
-                block.predicted[0][i],
-                block.predicted[1][i],
-                block.predicted[2][i],
-            ],
-            trend: [
-                block.trend_before[0][i],
-                block.trend_before[1][i],
-                block.trend_before[2][i],
-            ],
+    /// classified (see [`FloorTrack::step`]): its prediction, with the
+    /// trend it had before that row faded by `trend_rate`.
+    pub fn coasted(&self, u: usize, trend_rate: f32) -> FloorTrack {
+        let mut track = FloorTrack {
+            level: self.predicted(u),
+            trend: self.trend_before(u),
+        };
+        for t in &mut track.trend {
+            *t += trend_rate * -*t;
         }
+        track
+    }
+
+    /// Column `u`'s trend before the row last classified.
+    pub fn trend_before(&self, u: usize) -> [f32; 3] {
+        let (block, i) = (&self.blocks[u / BLOCK], u % BLOCK);
+        [
+            block.trend_before[0][i],
+            block.trend_before[1][i],
+            block.trend_before[2][i],
+        ]
     }
 
     /// The floor colour column `u`'s track predicted for the row last
@@ -719,6 +725,47 @@ mod tests {
         t.step(&[110.0; 3], true, rate, r);
         // Predicted 102, taken 102 + 0.25 × 8 = 104, trend 2 + 0.1 × (4 - 2).
         assert_eq!((t.level[0], t.trend[0]), (104.0, 2.2));
+    }
+
+    /// The lock-step lanes coast and take pixels in with exactly the
+    /// arithmetic of [`FloorTrack::step`], and [`Lanes::coasted`] is the
+    /// track coasted over the row.
+    #[test]
+    fn lanes_step_as_floor_tracks_do() {
+        let classifier = Classifier {
+            noise: 3.0,
+            brightness_step: 0.18,
+            chroma_step: 0.05,
+        };
+        let edge = classifier.scaled_both(0.5);
+        let (rate, trend_rate) = (0.25, 0.1);
+        let track = FloorTrack {
+            level: [100.0, 93.0, 85.0],
+            trend: [1.5, 1.25, -0.5],
+        };
+        // Column 0 sees floor, column 1 a bright speck.
+        let row: Vec<u8> = [[101u8, 95, 85], [101, 95, 85], [240, 240, 240], [240, 240, 240]].concat();
+        let mut lanes = Lanes::new(4);
+        lanes.start(0, track);
+        lanes.start(2, track);
+        lanes.step(&row, 0, (&classifier, &edge, 0.06), (rate, trend_rate), 0..4);
+        assert_eq!(lanes.off_columns(0..4).collect::<Vec<_>>(), [2]);
+        for (u, floor) in [(0, true), (2, false)] {
+            let p = smoothed(&row, 4, u as u32, 0);
+            let mut want = track;
+            want.step(&p, floor, rate, trend_rate);
+            let block = &lanes.blocks[0];
+            let got = FloorTrack {
+                level: std::array::from_fn(|c| block.level[c][u]),
+                trend: std::array::from_fn(|c| block.trend[c][u]),
+            };
+            assert_eq!((got.level, got.trend), (want.level, want.trend), "column {u}");
+            assert_eq!(lanes.trend_before(u), track.trend);
+            let mut coasted = track;
+            coasted.step(&p, false, rate, trend_rate);
+            let c = lanes.coasted(u, trend_rate);
+            assert_eq!((c.level, c.trend), (coasted.level, coasted.trend), "column {u}");
+        }
     }
 
     #[test]
