@@ -1134,12 +1134,7 @@ mod tests {
         let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
         let run = ex.run_rows[(tape.end as usize - 1) * 320 + 160];
         assert!(run as usize >= 2 * tape.len(), "{run}");
-        let b = ex.boundaries(&img).unwrap();
-        let found: Vec<_> = b
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !matches!(c, ColumnBoundary::Clear { .. }))
-            .collect();
+        let found = obstacle_columns(&img);
         assert!(
             found.is_empty(),
             "{} columns, first {:?}",
