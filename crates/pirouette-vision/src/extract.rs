@@ -1243,6 +1243,26 @@ mod tests {
         assert!(found.is_empty(), "obstacles in columns {found:?}");
     }
 
+    /// The lint of `wide_specks_in_the_seed_rows_are_floor` near the right
+    /// edge of a dark floor that also darkens towards that corner
+    /// (vignetting), by more than the brightness tolerance between the
+    /// seeds that far out on either side: they disagree with each other,
+    /// but the median seed of the window between them is the floor's.
+    #[test]
+    fn wide_specks_in_a_vignetted_corner_are_floor() {
+        let mut img = image::RgbImage::from_fn(320, 240, |u, v| {
+            let val = (40.0 - 0.1 * u as f32) * (1.0 + 0.01 * (239 - v) as f32);
+            image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+        });
+        for u in 250..274 {
+            for v in 228..240 {
+                img.put_pixel(u, v, image::Rgb([200, 200, 195]));
+            }
+        }
+        let found = obstacle_columns(&img);
+        assert!(found.is_empty(), "obstacles in columns {found:?}");
+    }
+
     #[test]
     fn uniform_images_give_empty_profiles_and_wrong_sizes_errors() {
         let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());

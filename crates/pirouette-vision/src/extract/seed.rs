@@ -129,6 +129,24 @@ pub(super) fn small_median(vals: &mut [f32]) -> f32 {
     vals[vals.len() / 2]
 }
 
+/// The seed of median brightness (channel sum of its level) among the
+/// tracks of `seeds`, the upper one of an even count; `None` without any.
+fn median_seed(seeds: &[Seed]) -> Option<FloorTrack> {
+    let mut tracks: Vec<(f32, FloorTrack)> = seeds
+        .iter()
+        .filter_map(|s| match s {
+            Seed::Track(t) => Some((t.level.iter().sum(), *t)),
+            _ => None,
+        })
+        .collect();
+    if tracks.is_empty() {
+        return None;
+    }
+    let mid = tracks.len() / 2;
+    tracks.select_nth_unstable_by(mid, |a, b| a.0.total_cmp(&b.0));
+    Some(tracks[mid].1)
+}
+
 /// Where a column's scan starts.
 #[derive(Debug, Clone, Copy)]
 pub(super) enum Seed {
@@ -154,7 +172,10 @@ impl RopExtractor {
     /// on it too and agree, or straddle its edge and disagree with each
     /// other. The seed is then compared with seeds farther out
     /// ([`WIDE_SPECK_SCALES`]), on both sides only, that agree with each
-    /// other. A real obstacle at the bottom narrower than twice the
+    /// other; where they do not (a dark floor darkening into a vignetted
+    /// corner changes by more than the tolerance that far), with the median
+    /// seed of the window between them, when that is floor to one of them.
+    /// A real obstacle at the bottom narrower than twice the
     /// farthest scale is then followed as one from the row above the seed,
     /// where before its colour was taken for the floor's.
     pub(super) fn seeds(&self, px: &[u8], classifier: &Classifier) -> Vec<Seed> {
@@ -229,11 +250,25 @@ impl RopExtractor {
                         break;
                     };
                     // (The floor's usual case, agreeing with `l`, first.)
-                    if !classifier.is_floor(&t.level, &l.level)
-                        && !classifier.is_floor(&t.level, &r.level)
-                        && classifier.is_floor(&l.level, &r.level)
-                    {
+                    if classifier.is_floor(&t.level, &l.level) || classifier.is_floor(&t.level, &r.level) {
+                        continue;
+                    }
+                    if classifier.is_floor(&l.level, &r.level) {
                         return Seed::Track(line(l, r, 0.5));
+                    }
+                    // Sides that disagree with each other: the floor may
+                    // darken across the window into a vignetted corner by
+                    // more than the tolerance. The window's median seed
+                    // (by brightness) is the floor's where the speck covers
+                    // less than half of it; it must be floor to one side at
+                    // least (not a column on the speck's edge).
+                    if let Some(m) = median_seed(&own[u - scale..=u + scale]) {
+                        if !classifier.is_floor(&t.level, &m.level)
+                            && (classifier.is_floor(&m.level, &l.level)
+                                || classifier.is_floor(&m.level, &r.level))
+                        {
+                            return Seed::Track(m);
+                        }
                     }
                 }
                 own[u]
