@@ -258,10 +258,14 @@ impl RopExtractor {
                     }
                     // Sides that disagree with each other: the floor may
                     // darken across the window into a vignetted corner by
-                    // more than the tolerance. The window's median seed
-                    // (by brightness) is the floor's where the speck covers
-                    // less than half of it; it must be floor to one side at
-                    // least (not a column on the speck's edge).
+                    // more than the tolerance. A seed on the line between
+                    // them is that floor. Otherwise the window's median
+                    // seed (by brightness) is the floor's where the speck
+                    // covers less than half of it; it must be floor to one
+                    // side at least (not a column on the speck's edge).
+                    if classifier.is_floor(&t.level, &line(l, r, 0.5).level) {
+                        continue;
+                    }
                     if let Some(m) = median_seed(&own[u - scale..=u + scale]) {
                         if !classifier.is_floor(&t.level, &m.level)
                             && (classifier.is_floor(&m.level, &l.level)
