@@ -173,8 +173,9 @@ impl RopExtractor {
     /// other. The seed is then compared with seeds farther out
     /// ([`WIDE_SPECK_SCALES`]), on both sides only, that agree with each
     /// other; where they do not (a dark floor darkening into a vignetted
-    /// corner changes by more than the tolerance that far), with the median
-    /// seed of the window between them, when that is floor to one of them.
+    /// corner changes by more than the tolerance that far) and the seed is
+    /// not floor to the midpoint between them, with the median seed of the
+    /// window between them, when that is floor to one of them.
     /// A real obstacle at the bottom narrower than twice the
     /// farthest scale is then followed as one from the row above the seed,
     /// where before its colour was taken for the floor's.
