@@ -2,12 +2,14 @@
 //! over translation and rotation, then a local refinement below one cell,
 //! with the covariance of the pose from the spread of the search.
 
+use crate::bound::{search_rotation, Block, GaussianTerm, Kept, SharedBest};
 use crate::field::LikelihoodField;
 use crate::RegisterError;
 use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::{wrap_angle, Point2, Pose2};
 use pirouette_grid::{FREE_THRESH, OCCUPIED_THRESH};
 use rayon::prelude::*;
+use std::sync::atomic::AtomicUsize;
 
 /// How far a forward move may stray from its command (one standard
 /// deviation).
@@ -143,6 +145,21 @@ pub struct RegisterConfig {
     /// with the same range error, so counting each would overrule the
     /// prior with correlated evidence.
     pub spacing_m: f64,
+    /// How the lattice is searched; both find the same poses.
+    pub search: Search,
+}
+
+/// How [`register`] searches its lattice. Both find the same best pose and
+/// the same posterior (every pose whose weight counts, scored alike and
+/// summed in the same order); they differ only in time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Search {
+    /// Score every pose: the reference.
+    Exhaustive,
+    /// Score blocks of poses by an upper bound first and drop those that
+    /// cannot count ([`crate::bound`]).
+    #[default]
+    BranchAndBound,
 }
 
 impl Default for RegisterConfig {
@@ -152,7 +169,7 @@ impl Default for RegisterConfig {
     /// obstacles above and floor below `map_server`'s 0.65 and 0.196;
     /// a ±3σ window of at most ±1 m; endpoints counted once per 3 cm (2σ:
     /// closer ones share their error); at least 10 of them (30 cm of edge)
-    /// on mapped obstacles.
+    /// on mapped obstacles; the branch-and-bound search.
     fn default() -> Self {
         Self {
             sigma_m: 0.015,
@@ -164,6 +181,7 @@ impl Default for RegisterConfig {
             max_window_m: 1.0,
             min_matched: 10,
             spacing_m: 0.03,
+            search: Search::BranchAndBound,
         }
     }
 }
@@ -185,8 +203,25 @@ pub struct Registration {
     pub matched: usize,
     /// Whether the match was trusted.
     pub accepted: bool,
-    /// Poses scored.
+    /// Lattice poses and blocks of poses scored.
     pub evaluated: usize,
+    /// The best rival peak of the search's posterior, where it holds one
+    /// (see [`Rival`]).
+    pub rival: Option<Rival>,
+}
+
+/// A second peak of the registration's posterior: the best local maximum
+/// of the lattice's scores that is not the best pose or its neighbour,
+/// among the poses whose posterior weight counts (at least `10⁻⁹` of the
+/// best's). Its weight is in the covariance already; how far it falls
+/// below the best says how ambiguous the match is (a gap of a few nats on
+/// a wide search means a look-alike pose nearly as good).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rival {
+    /// The rival pose, `world_from_robot`, on the search lattice.
+    pub pose: Pose2,
+    /// The best score less the rival's (nats, at least 0).
+    pub below_best_ln: f64,
 }
 
 /// Keeps one endpoint per cell of side `cell_m` (the first), so that a
@@ -205,13 +240,16 @@ pub fn thin_points(points: &[Point2], cell_m: f64) -> Vec<Point2> {
 /// Registers the endpoints of a sweep (`points_robot`, in the sweep's own
 /// frame) against the map's likelihood field, starting from `prior`.
 ///
-/// The search scores every pose of a lattice covering the prior's ±
-/// `window_sigmas` box: rotations a step apart that moves the farthest
-/// endpoint by at most one cell, translations one cell apart. The best
-/// lattice pose is then refined by a shrinking pattern search on the
-/// exact field down to 1/16 cell. The covariance is that of the
-/// lattice's posterior (score plus prior, exponentiated), so that it grows
-/// along a corridor and with few endpoints.
+/// The search covers a lattice spanning the prior's ± `window_sigmas` box:
+/// rotations a step apart that moves the farthest endpoint by at most one
+/// cell, translations one cell apart. It finds every lattice pose whose
+/// posterior weight (score plus prior, exponentiated) is at least `10⁻⁹` of
+/// the best's, by branch and bound or exhaustively
+/// ([`RegisterConfig::search`]). The best lattice pose is then refined by a
+/// shrinking pattern search on the exact field down to 1/16 cell. The
+/// covariance is that of the lattice's posterior, so that it grows along a
+/// corridor and with few endpoints, and a rival peak within the posterior
+/// is reported ([`Registration::rival`]).
 pub fn register(
     field: &LikelihoodField,
     points_robot: &[Point2],
@@ -229,6 +267,7 @@ pub fn register(
         matched,
         accepted: false,
         evaluated,
+        rival: None,
     };
     if points.len() < config.min_matched || field.obstacle_points() == 0 {
         return Ok(fallback(field.floor() as f64, 0, 0));
@@ -243,7 +282,6 @@ pub fn register(
     let nx = (half_x / res).ceil() as i64;
     let ny = (half_y / res).ceil() as i64;
     let nt = (half_t / theta_step).ceil() as i64;
-    let (sx, sy) = ((2 * nx + 1) as usize, (2 * ny + 1) as usize);
 
     let lattice = Lattice {
         prior,
@@ -253,47 +291,43 @@ pub fn register(
         nx,
         ny,
     };
-    // Scores of the lattice, one slab of sx·sy per rotation, each with its
-    // best pose (the first of equal scores).
-    let slabs: Vec<(Vec<f32>, LatticeBest)> = (-nt..=nt)
-        .into_par_iter()
-        .map(|kt| {
-            let theta = prior.mean.theta + kt as f64 * theta_step;
-            let (s, c) = theta.sin_cos();
-            let cells: Vec<(i64, i64)> = points
-                .iter()
-                .map(|p| {
-                    let x = prior.mean.x + c * p.x - s * p.y;
-                    let y = prior.mean.y + s * p.x + c * p.y;
-                    ((x / res).floor() as i64, (y / res).floor() as i64)
-                })
-                .collect();
-            let slab = lattice_slab(field, &cells, nx, ny);
-            let mut best = (f64::NEG_INFINITY, 0, 0, kt);
-            for (score, (a, b), _) in lattice.scores(&slab, kt) {
-                if score > best.0 {
-                    best = (score, a, b, kt);
-                }
-            }
-            (slab, best)
-        })
-        .collect();
-    let best = slabs
-        .iter()
-        .map(|(_, best)| *best)
-        .fold((f64::NEG_INFINITY, 0, 0, 0), |b, s| if s.0 > b.0 { s } else { b });
-    // The posterior's moments in a second pass over the slabs: the poses
-    // are not stored (32 bytes each, hundreds of megabytes for a wide
-    // search).
-    let evaluated = slabs.len() * sx * sy;
-    // A rotation whose best pose is negligible beside the best of all adds
-    // nothing.
-    let posterior = slabs
-        .iter()
-        .zip(-nt..=nt)
-        .filter(|((_, own), _)| own.0 - best.0 >= NEGLIGIBLE_LN)
-        .flat_map(|((slab, _), kt)| lattice.scores(slab, kt).map(|(score, _, x)| (score, x)));
+    // The endpoint cells of rotation `kt` at the prior's mean.
+    let cells_at = |kt: i64| -> Vec<(i64, i64)> {
+        let theta = prior.mean.theta + kt as f64 * theta_step;
+        let (s, c) = theta.sin_cos();
+        points
+            .iter()
+            .map(|p| {
+                let x = prior.mean.x + c * p.x - s * p.y;
+                let y = prior.mean.y + s * p.x + c * p.y;
+                ((x / res).floor() as i64, (y / res).floor() as i64)
+            })
+            .collect()
+    };
+    let (mut kept, evaluated) = match config.search {
+        Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at),
+        Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at),
+    };
+    // In lattice order, rotation by rotation, row by row: the order of the
+    // exhaustive search's sums.
+    kept.sort_by_key(|&(kt, k)| (kt, k.b, k.a));
+    // The first of equal best scores.
+    let best = kept.iter().fold((f64::NEG_INFINITY, 0, 0, 0), |b, &(kt, k)| {
+        if k.score > b.0 {
+            (k.score, k.a, k.b, kt)
+        } else {
+            b
+        }
+    });
+    let posterior = kept.iter().map(|&(kt, k)| (k.score, lattice.pose(k.a, k.b, kt)));
     let covariance = lattice_covariance(posterior, best.0, res, theta_step);
+    let rival = rival_peak(&kept, best).map(|(kt, k)| {
+        let x = lattice.pose(k.a, k.b, kt);
+        Rival {
+            pose: Pose2::new(x[0], x[1], x[2]),
+            below_best_ln: best.0 - k.score,
+        }
+    });
 
     let start = Pose2::new(
         prior.mean.x + best.1 as f64 * res,
@@ -314,6 +348,7 @@ pub fn register(
         matched,
         accepted: true,
         evaluated,
+        rival,
     })
 }
 
@@ -334,30 +369,148 @@ struct Lattice<'p> {
 }
 
 impl Lattice<'_> {
+    /// The lattice pose `(a, b, kt)` as world `(x, y, θ)`.
+    fn pose(&self, a: i64, b: i64, kt: i64) -> Vector3<f64> {
+        let mean = self.prior.mean;
+        Vector3::new(
+            mean.x + a as f64 * self.res,
+            mean.y + b as f64 * self.res,
+            mean.theta + kt as f64 * self.theta_step,
+        )
+    }
+
+    /// The prior's log density at a lattice pose.
+    fn prior_at(&self, a: i64, b: i64, kt: i64) -> f64 {
+        let x = self.pose(a, b, kt);
+        self.prior.log_density_turned(self.turned, x[0], x[1], x[2])
+    }
+
     /// The poses of rotation `kt` with their posterior scores (the field's
     /// `slab` plus the prior) and translation steps `(a, b)`, row-major in
     /// `b`.
-    fn scores<'s>(
-        &'s self,
-        slab: &'s [f32],
-        kt: i64,
-    ) -> impl Iterator<Item = (f64, (i64, i64), Vector3<f64>)> + 's {
+    fn scores<'s>(&'s self, slab: &'s [f32], kt: i64) -> impl Iterator<Item = (f64, (i64, i64))> + 's {
         let (nx, ny) = (self.nx, self.ny);
         let sx = (2 * nx + 1) as usize;
-        let mean = self.prior.mean;
         (-ny..=ny).flat_map(move |b| {
             (-nx..=nx).map(move |a| {
                 let k = (b + ny) as usize * sx + (a + nx) as usize;
-                let x = Vector3::new(
-                    mean.x + a as f64 * self.res,
-                    mean.y + b as f64 * self.res,
-                    mean.theta + kt as f64 * self.theta_step,
-                );
-                let score = slab[k] as f64 + self.prior.log_density_turned(self.turned, x[0], x[1], x[2]);
-                (score, (a, b), x)
+                (slab[k] as f64 + self.prior_at(a, b, kt), (a, b))
             })
         })
     }
+}
+
+/// A lattice pose kept for the posterior, with its rotation step.
+type KeptPose = (i64, Kept);
+
+/// Every lattice pose scored, one slab of sx·sy per rotation; kept are those
+/// whose posterior weight can count ([`NEGLIGIBLE_LN`] below the best at
+/// most), unsorted, and the count of poses scored.
+fn exhaustive(
+    field: &LikelihoodField,
+    lattice: &Lattice,
+    nt: i64,
+    cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
+) -> (Vec<KeptPose>, usize) {
+    let (nx, ny) = (lattice.nx, lattice.ny);
+    let slabs: Vec<(Vec<f32>, f64)> = (-nt..=nt)
+        .into_par_iter()
+        .map(|kt| {
+            let slab = lattice_slab(field, &cells_at(kt), nx, ny);
+            let best = lattice
+                .scores(&slab, kt)
+                .fold(f64::NEG_INFINITY, |b, (s, _)| b.max(s));
+            (slab, best)
+        })
+        .collect();
+    let best = slabs.iter().fold(f64::NEG_INFINITY, |b, s| b.max(s.1));
+    let evaluated = slabs.iter().map(|s| s.0.len()).sum();
+    // The poses are kept in a second pass over the slabs, which a rotation
+    // whose best pose is negligible beside the best of all skips: storing
+    // all (32 bytes each) would take hundreds of megabytes on a wide
+    // search.
+    let kept = slabs
+        .iter()
+        .zip(-nt..=nt)
+        .filter(|((_, own), _)| own - best >= NEGLIGIBLE_LN)
+        .flat_map(|((slab, _), kt)| {
+            lattice
+                .scores(slab, kt)
+                .filter(|(score, _)| score - best >= NEGLIGIBLE_LN)
+                .map(move |(score, (a, b))| (kt, Kept { a, b, score }))
+        })
+        .collect();
+    (kept, evaluated)
+}
+
+/// The poses the exhaustive search keeps, found by branch and bound
+/// ([`crate::bound`]): rotations searched from the prior's mean outwards
+/// (in parallel), sharing the best score found so far.
+fn bounded(
+    field: &LikelihoodField,
+    lattice: &Lattice,
+    nt: i64,
+    cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
+) -> (Vec<KeptPose>, usize) {
+    let best = SharedBest::new();
+    let nodes = AtomicUsize::new(0);
+    let block = Block {
+        nx: lattice.nx,
+        ny: lattice.ny,
+    };
+    let prior = lattice.prior;
+    let form = GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m);
+    let search = |kt: i64| -> Vec<KeptPose> {
+        let theta = prior.mean.theta + kt as f64 * lattice.theta_step;
+        let term = GaussianTerm {
+            exact: |a, b| lattice.prior_at(a, b, kt),
+            theta_term: GaussianTerm::theta_term(theta, prior.mean.theta, prior.sigma_theta_rad),
+            form,
+            res: lattice.res,
+        };
+        let cells = cells_at(kt);
+        search_rotation(field, &cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
+            .into_iter()
+            .map(|k| (kt, k))
+            .collect()
+    };
+    // The prior's mean first, which finds a good bound for all the rest.
+    let mut kept = search(0);
+    let order: Vec<i64> = (1..=nt).flat_map(|k| [k, -k]).collect();
+    kept.extend(order.into_par_iter().flat_map_iter(search).collect::<Vec<_>>());
+    // A pose kept before the best was known may lie below its margin.
+    let top = best.get();
+    kept.retain(|(_, k)| k.score - top >= NEGLIGIBLE_LN);
+    (kept, nodes.into_inner())
+}
+
+/// The best local maximum of the kept poses' scores (no kept lattice
+/// neighbour scores higher) that is neither the best pose nor its
+/// neighbour. `kept` is sorted in lattice order.
+fn rival_peak(kept: &[KeptPose], best: LatticeBest) -> Option<KeptPose> {
+    let score: std::collections::HashMap<(i64, i64, i64), f64> =
+        kept.iter().map(|&(kt, k)| ((kt, k.a, k.b), k.score)).collect();
+    let near = |kt: i64, a: i64, b: i64| {
+        (kt - best.3).abs() <= 1 && (a - best.1).abs() <= 1 && (b - best.2).abs() <= 1
+    };
+    kept.iter()
+        .copied()
+        .filter(|&(kt, k)| !near(kt, k.a, k.b))
+        .filter(|&(kt, k)| {
+            (-1..=1).all(|dt| {
+                (-1..=1).all(|da| {
+                    (-1..=1).all(|db| {
+                        score
+                            .get(&(kt + dt, k.a + da, k.b + db))
+                            .is_none_or(|&s| s <= k.score)
+                    })
+                })
+            })
+        })
+        .fold(None, |r: Option<KeptPose>, c| match r {
+            Some(r) if r.1.score >= c.1.score => Some(r),
+            _ => Some(c),
+        })
 }
 
 /// The summed field value of the endpoint cells `cells` translated by every
@@ -579,6 +732,83 @@ mod tests {
             lattice_covariance(poses.iter().copied(), best, res, step),
             lattice_covariance(kept, best, res, step)
         );
+    }
+
+    /// Random walls and posts, seen from a random pose with noise, and a
+    /// prior off the truth by up to its own spread: the branch-and-bound
+    /// search finds the exhaustive search's best pose, covariance and rival
+    /// to the bit, scoring fewer poses.
+    #[test]
+    fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let (mut cases, mut scored, mut all, mut rivals) = (0, 0, 0, 0);
+        for case in 0..24 {
+            let mut world = Vec::new();
+            for _ in 0..rng.random_range(2..7) {
+                let (x0, y0) = (rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5));
+                let angle: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+                let length = rng.random_range(0.3..2.0);
+                for k in 0..(length / 0.004) as usize {
+                    let t = k as f64 * 0.004;
+                    world.push(Point2::new(x0 + t * angle.cos(), y0 + t * angle.sin()));
+                }
+            }
+            for _ in 0..rng.random_range(0..4) {
+                let (cx, cy) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                for k in 0..60 {
+                    let a = k as f64 / 60.0 * std::f64::consts::TAU;
+                    world.push(Point2::new(cx + 0.04 * a.cos(), cy + 0.04 * a.sin()));
+                }
+            }
+            let field = field_of(&world);
+            let truth = Pose2::new(
+                rng.random_range(-0.3..0.3),
+                rng.random_range(-0.3..0.3),
+                rng.random_range(-3.0..3.0),
+            );
+            let mut seen = seen_from(&world, &truth, rng.random_range(0.8..2.0), 0.004, case);
+            if case % 6 == 5 {
+                // Clutter the map does not hold.
+                seen.extend(
+                    (0..40).map(|_| Point2::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))),
+                );
+            }
+            let prior = PosePrior {
+                mean: truth
+                    * Pose2::new(
+                        rng.random_range(-0.05..0.05),
+                        rng.random_range(-0.05..0.05),
+                        rng.random_range(-0.05..0.05),
+                    ),
+                sigma_forward_m: rng.random_range(0.01..0.06),
+                sigma_left_m: rng.random_range(0.01..0.06),
+                sigma_theta_rad: rng.random_range(0.005..0.05),
+            };
+            let search = |search| RegisterConfig {
+                search,
+                ..RegisterConfig::default()
+            };
+            let full = register(&field, &seen, &prior, &search(Search::Exhaustive)).unwrap();
+            let fast = register(&field, &seen, &prior, &search(Search::BranchAndBound)).unwrap();
+            if full.evaluated == 0 {
+                continue;
+            }
+            assert_eq!(
+                Registration {
+                    evaluated: full.evaluated,
+                    ..fast.clone()
+                },
+                full,
+                "case {case}"
+            );
+            cases += 1;
+            scored += fast.evaluated;
+            all += full.evaluated;
+            rivals += usize::from(full.rival.is_some());
+        }
+        assert!(cases >= 20, "{cases} cases searched");
+        assert!(rivals >= 1, "no case had a rival peak");
+        assert!(scored * 10 < all, "{scored} of {all} poses scored");
     }
 
     #[test]

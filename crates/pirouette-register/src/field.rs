@@ -1,5 +1,6 @@
 //! The likelihood field of a map: how well a point explains an obstacle.
 
+use crate::bound::Pyramid;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
@@ -22,7 +23,8 @@ use pirouette_grid::OccupancyGrid;
 /// would flatten the peak of a wall lying between two cell centres.
 ///
 /// # Memory
-/// Five bytes per cell of the map's extent (plus a border of `3σ`), and
+/// Five bytes per cell of the map's extent (plus a border of `3σ`), the
+/// branch-and-bound search's levels once searched (see `Pyramid`), and
 /// the k-d tree of the points (about 20 bytes each: coordinates and an
 /// index).
 #[derive(Debug, Clone)]
@@ -42,6 +44,9 @@ pub struct LikelihoodField {
     free: Vec<bool>,
     floor: f32,
     occupied: usize,
+    /// Max-pooled levels for the branch-and-bound search, built on first
+    /// use.
+    pyramid: Pyramid,
 }
 
 impl LikelihoodField {
@@ -190,6 +195,7 @@ impl LikelihoodField {
                 free: Vec::new(),
                 floor,
                 occupied: 0,
+                pyramid: Pyramid::default(),
             };
         };
         let width = (max_cell.0 - min_cell.0 + 1) as usize;
@@ -258,6 +264,7 @@ impl LikelihoodField {
             free,
             floor,
             occupied: points.len(),
+            pyramid: Pyramid::default(),
         }
     }
 
@@ -303,6 +310,11 @@ impl LikelihoodField {
         };
         let d2 = tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
         (base + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
+    }
+
+    /// The field's max-pooled levels.
+    pub(crate) fn pyramid(&self) -> &Pyramid {
+        &self.pyramid
     }
 
     /// The stored block: `(min_cell, width, height, values)`, row-major.

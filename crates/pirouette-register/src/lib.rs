@@ -24,10 +24,13 @@
 //! ```
 #![deny(missing_docs)]
 
+mod bound;
 mod correlative;
 mod field;
 
-pub use correlative::{register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration};
+pub use correlative::{
+    register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
+};
 pub use field::LikelihoodField;
 
 use pirouette_geom::Point2;

@@ -1,0 +1,401 @@
+//! Branch-and-bound over the registration lattice: every lattice pose whose
+//! posterior score lies within a set margin of the best, found without
+//! scoring the rest.
+//!
+//! A block of `2ʰ × 2ʰ` translations at one rotation scores at most the sum,
+//! over the endpoints, of the field's largest value in the block each
+//! endpoint sweeps ([`Pyramid`], level `h`), plus the prior's largest value
+//! over the block. A block whose bound falls below the best score found so
+//! far less the margin cannot hold a pose the posterior keeps, and is
+//! dropped whole; the others split into four, best first, down to single
+//! poses (the depth-first search of Olson's multi-resolution matcher and
+//! Cartographer's fast correlative matcher, with the bound widened by the
+//! margin so that the posterior's mass is found as well as its peak).
+//!
+//! Scores are summed in the exhaustive search's order with its arithmetic,
+//! so a pose found here scores bit for bit what the exhaustive lattice
+//! gives it, and a bound sums larger values in the same order, which
+//! rounding cannot invert.
+
+use crate::field::LikelihoodField;
+use pirouette_geom::wrap_angle;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::OnceLock;
+
+/// Levels of a [`Pyramid`] at the most: blocks up to 2¹¹ cells a side, wider
+/// than any search window (at 1 cm cells, 20 m).
+pub(crate) const MAX_LEVELS: usize = 12;
+
+/// Max-pooled levels of a likelihood field, built on first use: level `h`
+/// holds at cell `(i, j)` the largest field value over the cells
+/// `[i, i + 2ʰ) × [j, j + 2ʰ)` (the floor beyond the field).
+///
+/// # Memory
+/// Four bytes per cell of the field's extent per level used, each level
+/// `2ʰ − 1` cells wider and taller than the field.
+#[derive(Clone, Default)]
+pub(crate) struct Pyramid {
+    levels: [OnceLock<Level>; MAX_LEVELS],
+}
+
+impl std::fmt::Debug for Pyramid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let built = self.levels.iter().filter(|l| l.get().is_some()).count();
+        write!(f, "Pyramid {{ levels built: {built} }}")
+    }
+}
+
+/// One level of a [`Pyramid`]: a block of cells from `origin`, row-major.
+#[derive(Clone)]
+pub(crate) struct Level {
+    origin: (i64, i64),
+    width: usize,
+    height: usize,
+    values: Vec<f32>,
+    floor: f32,
+}
+
+impl Level {
+    /// The value at cell `(i, j)`, the floor outside the block.
+    #[inline]
+    fn get(&self, i: i64, j: i64) -> f32 {
+        let (x, y) = (i.wrapping_sub(self.origin.0), j.wrapping_sub(self.origin.1));
+        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
+            self.values[y as usize * self.width + x as usize]
+        } else {
+            self.floor
+        }
+    }
+
+    /// The sum over `cells`, each moved by `(a, b)`, in the order given
+    /// (the exhaustive search's order: its rounding).
+    #[inline]
+    fn sum(&self, cells: &[(i64, i64)], a: i64, b: i64) -> f32 {
+        let mut s = 0f32;
+        for &(i, j) in cells {
+            s += self.get(i + a, j + b);
+        }
+        s
+    }
+
+    /// The next level up: the largest of four blocks half the size, each
+    /// `half` cells a side, taken along rows first, then along columns.
+    fn pooled(&self, half: i64) -> Level {
+        let grow = half as usize;
+        let (w, h) = (self.width, self.height);
+        let width = w + grow;
+        let floor = self.floor;
+        // Along rows: `row[x]` of the new width holds the larger of the old
+        // row's cells `x − half` and `x` (local), the floor beyond it.
+        let mut rows = vec![floor; width * h];
+        for (old, new) in self
+            .values
+            .chunks_exact(w.max(1))
+            .zip(rows.chunks_exact_mut(width))
+        {
+            for (v, &o) in new[..w].iter_mut().zip(old) {
+                *v = v.max(o);
+            }
+            for (v, &o) in new[grow..].iter_mut().zip(old) {
+                *v = v.max(o);
+            }
+        }
+        // Along columns, likewise.
+        let height = h + grow;
+        let mut values = vec![floor; width * height];
+        for (y, row) in rows.chunks_exact(width).enumerate() {
+            for at in [y, y + grow] {
+                for (v, &o) in values[at * width..][..width].iter_mut().zip(row) {
+                    *v = v.max(o);
+                }
+            }
+        }
+        Level {
+            origin: (self.origin.0 - half, self.origin.1 - half),
+            width,
+            height,
+            values,
+            floor,
+        }
+    }
+}
+
+impl Pyramid {
+    /// Level `h` of `field`'s pyramid (level 0 is the field itself),
+    /// building it and the levels below on first use.
+    pub(crate) fn level<'p>(&'p self, field: &LikelihoodField, h: usize) -> &'p Level {
+        self.levels[h].get_or_init(|| {
+            if h == 0 {
+                let (origin, width, height, values) = field.raw();
+                Level {
+                    origin,
+                    width,
+                    height,
+                    values: values.to_vec(),
+                    floor: field.floor(),
+                }
+            } else {
+                self.level(field, h - 1).pooled(1 << (h - 1))
+            }
+        })
+    }
+}
+
+/// The lattice a search covers: translations `a·res`, `b·res` about the
+/// prior's mean (`|a| ≤ nx`, `|b| ≤ ny`) at one rotation.
+pub(crate) struct Block {
+    /// Translation steps covered.
+    pub nx: i64,
+    /// Translation steps covered.
+    pub ny: i64,
+}
+
+/// The prior's log density over a rotation's translations: the exact
+/// value per lattice pose, and its largest value over a box.
+pub(crate) trait PriorTerm {
+    /// `ln p` of the lattice pose `(a, b)` of this rotation, computed as
+    /// the exhaustive search computes it.
+    fn at(&self, a: i64, b: i64) -> f64;
+    /// At least the largest `ln p` over the translations
+    /// `[a0, a1] × [b0, b1]` of this rotation.
+    fn at_most(&self, a0: i64, a1: i64, b0: i64, b1: i64) -> f64;
+}
+
+/// The Gaussian prior `−½ (forward²/σf² + left²/σl² + dθ²/σθ²)` at one
+/// rotation, on a lattice of `res` about its mean.
+pub(crate) struct GaussianTerm<F: Fn(i64, i64) -> f64> {
+    /// The exact value of a lattice pose.
+    pub exact: F,
+    /// `dθ²/σθ²` of this rotation.
+    pub theta_term: f64,
+    /// The quadratic form `A dx² + 2B dx dy + C dy²` of the translation
+    /// part, in world offsets from the mean.
+    pub form: (f64, f64, f64),
+    /// Lattice step, metres.
+    pub res: f64,
+}
+
+impl GaussianTerm<fn(i64, i64) -> f64> {
+    /// The quadratic form of a prior with spreads `sigma_forward_m`,
+    /// `sigma_left_m` about a mean heading with `(sin, cos)` = `turned`.
+    pub(crate) fn form(turned: (f64, f64), sigma_forward_m: f64, sigma_left_m: f64) -> (f64, f64, f64) {
+        let (s, c) = turned;
+        let (f, l) = (sigma_forward_m.powi(-2), sigma_left_m.powi(-2));
+        (c * c * f + s * s * l, c * s * (f - l), s * s * f + c * c * l)
+    }
+
+    /// `dθ²/σθ²` of rotation `theta` about the mean heading.
+    pub(crate) fn theta_term(theta: f64, mean_theta: f64, sigma_theta_rad: f64) -> f64 {
+        (wrap_angle(theta - mean_theta) / sigma_theta_rad).powi(2)
+    }
+}
+
+/// Slack on every bound: the bounds are computed in other floating-point
+/// steps than the scores, which may differ by a few units in the last
+/// place.
+const BOUND_SLACK: f64 = 1e-6;
+
+impl<F: Fn(i64, i64) -> f64> PriorTerm for GaussianTerm<F> {
+    fn at(&self, a: i64, b: i64) -> f64 {
+        (self.exact)(a, b)
+    }
+
+    fn at_most(&self, a0: i64, a1: i64, b0: i64, b1: i64) -> f64 {
+        let q = min_quadratic_on_box(
+            self.form,
+            (a0 as f64 * self.res, a1 as f64 * self.res),
+            (b0 as f64 * self.res, b1 as f64 * self.res),
+        );
+        -0.5 * (q + self.theta_term)
+    }
+}
+
+/// The least value of the convex form `A x² + 2B xy + C y²` (`A, C > 0`,
+/// `AC ≥ B²`) over the box `[x0, x1] × [y0, y1]`: zero when the box holds
+/// the origin, else the least over its four edges, each a convex parabola
+/// whose minimum is clamped to the edge.
+pub(crate) fn min_quadratic_on_box(
+    (a, b, c): (f64, f64, f64),
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> f64 {
+    if x0 <= 0.0 && 0.0 <= x1 && y0 <= 0.0 && 0.0 <= y1 {
+        return 0.0;
+    }
+    let q = |x: f64, y: f64| a * x * x + 2.0 * b * x * y + c * y * y;
+    let on_x = |x: f64| q(x, (-b * x / c).clamp(y0, y1));
+    let on_y = |y: f64| q((-b * y / a).clamp(x0, x1), y);
+    on_x(x0).min(on_x(x1)).min(on_y(y0)).min(on_y(y1)).max(0.0)
+}
+
+/// The best score found so far by any rotation's search, shared between
+/// threads (an `f64` in its bits; only ever raised).
+pub(crate) struct SharedBest(AtomicU64);
+
+impl SharedBest {
+    pub(crate) fn new() -> Self {
+        Self(AtomicU64::new(f64::NEG_INFINITY.to_bits()))
+    }
+
+    pub(crate) fn get(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+
+    fn raise(&self, score: f64) {
+        let _ = self.0.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |bits| {
+            (score > f64::from_bits(bits)).then_some(score.to_bits())
+        });
+    }
+}
+
+/// A lattice pose kept by the search: its translation steps and score.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Kept {
+    pub a: i64,
+    pub b: i64,
+    pub score: f64,
+}
+
+/// Every translation of one rotation whose score (field sum over `cells`
+/// moved by `(a, b)`, plus `prior`) is at least the best score any search
+/// sharing `best` finds, plus `margin_ln` (negative), unsorted; among them
+/// surely all that reach the final best plus `margin_ln`. `nodes` counts
+/// the blocks and poses scored.
+pub(crate) fn search_rotation(
+    field: &LikelihoodField,
+    cells: &[(i64, i64)],
+    block: &Block,
+    prior: &impl PriorTerm,
+    best: &SharedBest,
+    margin_ln: f64,
+    nodes: &AtomicUsize,
+) -> Vec<Kept> {
+    let side = (2 * block.nx.max(block.ny) + 1) as u64;
+    let top = (side.next_power_of_two().trailing_zeros() as usize).min(MAX_LEVELS - 1);
+    // The bound of the block of side 2ʰ from `(a0, b0)`, clipped to the
+    // lattice; at h = 0 the pose's exact score.
+    let bound = |a0: i64, b0: i64, h: usize| -> f64 {
+        let level = field.pyramid().level(field, h);
+        let sum = level.sum(cells, a0, b0) as f64;
+        if h == 0 {
+            sum + prior.at(a0, b0)
+        } else {
+            let last = (1i64 << h) - 1;
+            sum + prior.at_most(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny)) + BOUND_SLACK
+        }
+    };
+    let mut kept = Vec::new();
+    let mut scored = 1;
+    let mut stack = vec![(-block.nx, -block.ny, top, bound(-block.nx, -block.ny, top))];
+    let mut children = Vec::with_capacity(4);
+    while let Some((a0, b0, h, value)) = stack.pop() {
+        if value < best.get() + margin_ln {
+            continue;
+        }
+        if h == 0 {
+            best.raise(value);
+            kept.push(Kept {
+                a: a0,
+                b: b0,
+                score: value,
+            });
+            continue;
+        }
+        let half = 1i64 << (h - 1);
+        children.clear();
+        for (da, db) in [(0, 0), (half, 0), (0, half), (half, half)] {
+            let (a, b) = (a0 + da, b0 + db);
+            if a <= block.nx && b <= block.ny {
+                scored += 1;
+                let v = bound(a, b, h - 1);
+                if v >= best.get() + margin_ln {
+                    children.push((a, b, h - 1, v));
+                }
+            }
+        }
+        // The most promising child last, so that it is searched first.
+        children.sort_by(|x, y| x.3.total_cmp(&y.3));
+        stack.extend_from_slice(&children);
+    }
+    nodes.fetch_add(scored, Ordering::Relaxed);
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pirouette_geom::Point2;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn pooled_levels_hold_the_largest_value_of_their_block() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let pts: Vec<Point2> = (0..40)
+            .map(|_| Point2::new(rng.random_range(0.0..0.3), rng.random_range(-0.1..0.2)))
+            .collect();
+        let field = LikelihoodField::from_points(&pts, 0.01, 0.015, 0.2);
+        let pyramid = Pyramid::default();
+        let (min, w, h, _) = field.raw();
+        for level in 1..5usize {
+            let side = 1i64 << level;
+            let l = pyramid.level(&field, level);
+            // Every cell whose block touches the field, and a ring beyond.
+            for j in min.1 - side - 2..min.1 + h as i64 + 2 {
+                for i in min.0 - side - 2..min.0 + w as i64 + 2 {
+                    let mut most = f32::NEG_INFINITY;
+                    for y in j..j + side {
+                        for x in i..i + side {
+                            most = most.max(field.cell(x, y));
+                        }
+                    }
+                    assert_eq!(l.get(i, j), most, "level {level} at ({i}, {j})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_least_of_a_form_over_a_box_is_the_brute_force_least() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut cases = 0;
+        for _ in 0..300 {
+            let theta: f64 = rng.random_range(-3.2..3.2);
+            let form = GaussianTerm::form(
+                theta.sin_cos(),
+                rng.random_range(0.01..0.5),
+                rng.random_range(0.01..0.5),
+            );
+            let x0: f64 = rng.random_range(-1.0..1.0);
+            let y0: f64 = rng.random_range(-1.0..1.0);
+            let (x1, y1) = (x0 + rng.random_range(0.0..0.6), y0 + rng.random_range(0.0..0.6));
+            let least = min_quadratic_on_box(form, (x0, x1), (y0, y1));
+            let (a, b, c) = form;
+            let q = |x: f64, y: f64| a * x * x + 2.0 * b * x * y + c * y * y;
+            // A sampled least, zoomed in seven times about its place.
+            let (mut lo, mut hi) = ((x0, y0), (x1, y1));
+            let (mut brute, mut at) = (f64::INFINITY, lo);
+            for _ in 0..8 {
+                let n = 60;
+                for u in 0..=n {
+                    for v in 0..=n {
+                        let x = lo.0 + (hi.0 - lo.0) * u as f64 / n as f64;
+                        let y = lo.1 + (hi.1 - lo.1) * v as f64 / n as f64;
+                        if q(x, y) < brute {
+                            brute = q(x, y);
+                            at = (x, y);
+                        }
+                    }
+                }
+                let (dx, dy) = (2.0 * (hi.0 - lo.0) / n as f64, 2.0 * (hi.1 - lo.1) / n as f64);
+                lo = ((at.0 - dx).max(x0), (at.1 - dy).max(y0));
+                hi = ((at.0 + dx).min(x1), (at.1 + dy).min(y1));
+            }
+            // Never above any sampled value, and as low as the samples go.
+            assert!(least <= brute * (1.0 + 1e-12) + 1e-12, "{least} > {brute}");
+            assert!(least >= brute * (1.0 - 1e-6) - 1e-9, "{least} < {brute}");
+            cases += 1;
+        }
+        assert_eq!(cases, 300);
+    }
+}
