@@ -3,7 +3,7 @@
 //! with the covariance of the pose from the spread of the search.
 
 use crate::bound::{search_rotation, Block, GaussianTerm, Kept, SharedBest};
-use crate::field::LikelihoodField;
+use crate::field::{LikelihoodField, Neighbourhood};
 use crate::RegisterError;
 use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::{wrap_angle, Point2, Pose2};
@@ -334,8 +334,11 @@ pub fn register(
         prior.mean.y + best.2 as f64 * res,
         prior.mean.theta + best.3 as f64 * theta_step,
     );
-    let pose = refine(field, &points, prior, start, res, theta_step);
-    let (sum, matched) = evaluate(field, &points, &pose);
+    // Refinement moves the pose by about a cell: the obstacles near each
+    // endpoint's start decide its exact values there.
+    let anchored = Anchored::new(field, &points, start, res);
+    let pose = refine(&anchored, prior, res, theta_step);
+    let (sum, matched) = anchored.evaluate(&pose);
     let mean_ll = sum / points.len() as f64;
     if matched < config.min_matched {
         return Ok(fallback(mean_ll, matched, evaluated));
@@ -592,35 +595,67 @@ fn lattice_covariance(
     0.5 * (cov + cov.transpose()) + quant
 }
 
-/// Sum of the exact field over the endpoints at `pose`, and how many lie
-/// within two σ of a mapped obstacle.
-fn evaluate(field: &LikelihoodField, points: &[Point2], pose: &Pose2) -> (f64, usize) {
-    let floor = field.floor() as f64;
-    // ln(ε + (1−ε)·e⁻²) expressed through the floor: ε = e^floor.
-    let eps = floor.exp();
-    let near = (eps + (1.0 - eps) * (-2.0f64).exp()).ln();
-    let mut sum = 0.0;
-    let mut matched = 0;
-    for p in points {
-        let v = field.exact(pose.transform_point(*p));
-        sum += v;
-        matched += usize::from(v >= near);
+/// The endpoints of a refinement with their obstacle neighbourhoods about
+/// the pose it starts from, so that each exact value near the start scans
+/// a few candidates instead of the k-d tree.
+struct Anchored<'a> {
+    field: &'a LikelihoodField,
+    points: &'a [Point2],
+    start: Pose2,
+    near: Neighbourhood,
+}
+
+impl<'a> Anchored<'a> {
+    fn new(field: &'a LikelihoodField, points: &'a [Point2], start: Pose2, reach_m: f64) -> Self {
+        let starts: Vec<Point2> = points.iter().map(|p| start.transform_point(*p)).collect();
+        let near = field.neighbourhood(&starts, reach_m);
+        Self {
+            field,
+            points,
+            start,
+            near,
+        }
     }
-    (sum, matched)
+
+    /// Sum of the exact field over the endpoints at `pose`, and how many
+    /// lie within two σ of a mapped obstacle.
+    fn evaluate(&self, pose: &Pose2) -> (f64, usize) {
+        let floor = self.field.floor() as f64;
+        // ln(ε + (1−ε)·e⁻²) expressed through the floor: ε = e^floor.
+        let eps = floor.exp();
+        let near = (eps + (1.0 - eps) * (-2.0f64).exp()).ln();
+        // An endpoint `p` moves from its start by at most the translation
+        // plus `|p|` times the turn.
+        let shift = (pose.x - self.start.x).hypot(pose.y - self.start.y);
+        let turn = wrap_angle(pose.theta - self.start.theta).abs();
+        let mut sum = 0.0;
+        let mut matched = 0;
+        for (k, p) in self.points.iter().enumerate() {
+            let q = pose.transform_point(*p);
+            let v = if shift + p.norm() * turn <= self.near.reach_m {
+                self.field.exact_near(&self.near, k, q)
+            } else {
+                self.field.exact(q)
+            };
+            sum += v;
+            matched += usize::from(v >= near);
+        }
+        (sum, matched)
+    }
 }
 
 /// Pattern search on the exact score plus prior, from `start`,
 /// with steps halving from half a lattice step to 1/16 of it.
-fn refine(
-    field: &LikelihoodField,
-    points: &[Point2],
-    prior: &PosePrior,
-    start: Pose2,
-    res: f64,
-    theta_step: f64,
-) -> Pose2 {
-    let score = |p: &Pose2| evaluate(field, points, p).0 + prior.log_density(p.x, p.y, p.theta);
-    let mut pose = start;
+fn refine(anchored: &Anchored, prior: &PosePrior, res: f64, theta_step: f64) -> Pose2 {
+    // A third of the candidates are poses scored before (the same bits,
+    // reached again after a move): each is scored once.
+    let mut scored = std::collections::HashMap::new();
+    let mut score = |p: &Pose2| {
+        *scored
+            .entry((p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()))
+            .or_insert_with(|| anchored.evaluate(p).0 + prior.log_density(p.x, p.y, p.theta))
+    };
+    let mut pose = anchored.start;
     let mut best = score(&pose);
     let (mut step_xy, mut step_t) = (0.5 * res, 0.5 * theta_step);
     while step_xy >= res / 16.0 {

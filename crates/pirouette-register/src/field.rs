@@ -31,6 +31,8 @@ use pirouette_grid::OccupancyGrid;
 pub struct LikelihoodField {
     /// `None` without points.
     tree: Option<ImmutableKdTree<f64, 2>>,
+    /// The points of the tree, by its item index.
+    coords: Vec<[f64; 2]>,
     epsilon: f64,
     epsilon_free: f64,
     two_sigma2: f64,
@@ -184,6 +186,7 @@ impl LikelihoodField {
         let Some((min_cell, max_cell)) = extent else {
             return Self {
                 tree,
+                coords,
                 epsilon,
                 epsilon_free,
                 two_sigma2,
@@ -253,6 +256,7 @@ impl LikelihoodField {
             .collect();
         Self {
             tree,
+            coords,
             epsilon,
             epsilon_free,
             two_sigma2,
@@ -295,21 +299,76 @@ impl LikelihoodField {
 
     /// The exact value at a map point, from its nearest obstacle point.
     pub fn exact(&self, p: Point2) -> f64 {
+        let Some(tree) = &self.tree else {
+            return self.base_at(p).ln();
+        };
+        let d2 = tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
+        self.value(p, d2)
+    }
+
+    /// [`LikelihoodField::exact`] at `p`, which lies within the reach of
+    /// `near`'s endpoint `k` (see [`Neighbourhood`]): its nearest obstacle
+    /// point is among the endpoint's candidates, the same point the tree
+    /// would find, at the same distance to the bit.
+    pub(crate) fn exact_near(&self, near: &Neighbourhood, k: usize, p: Point2) -> f64 {
+        let candidates = &near.candidates[near.offsets[k] as usize..near.offsets[k + 1] as usize];
+        if candidates.is_empty() {
+            return self.exact(p);
+        }
+        let d2 = candidates
+            .iter()
+            .map(|c| (p.x - c[0]) * (p.x - c[0]) + (p.y - c[1]) * (p.y - c[1]))
+            .fold(f64::INFINITY, f64::min);
+        self.value(p, d2)
+    }
+
+    /// The obstacle points that can be nearest to any point within
+    /// `reach_m` of each of `starts`: all within `d₀ + 2·reach` of a start
+    /// whose own nearest lies `d₀` away (the nearest to a point `q` lies
+    /// within `d(q) + |q − start| ≤ d₀ + 2·reach` of the start).
+    pub(crate) fn neighbourhood(&self, starts: &[Point2], reach_m: f64) -> Neighbourhood {
+        let mut offsets = Vec::with_capacity(starts.len() + 1);
+        let mut candidates = Vec::new();
+        offsets.push(0u32);
+        for p in starts {
+            if let Some(tree) = &self.tree {
+                let q = [p.x, p.y];
+                let d0 = tree.nearest_one::<SquaredEuclidean>(&q).distance.sqrt();
+                // A hair wider against rounding: a point too many costs
+                // nothing, a point missed would change the value.
+                let radius = (d0 + 2.0 * reach_m) * (1.0 + 1e-9) + 1e-12;
+                if radius.is_finite() {
+                    for n in tree.within_unsorted::<SquaredEuclidean>(&q, radius * radius) {
+                        candidates.push(self.coords[n.item as usize]);
+                    }
+                }
+            }
+            offsets.push(candidates.len() as u32);
+        }
+        Neighbourhood {
+            reach_m,
+            offsets,
+            candidates,
+        }
+    }
+
+    /// The floor's base at a map point: `ε_free` on seen floor, else `ε`.
+    fn base_at(&self, p: Point2) -> f64 {
         let (i, j) = (
             (p.x / self.resolution_m).floor() as i64 - self.min_cell.0,
             (p.y / self.resolution_m).floor() as i64 - self.min_cell.1,
         );
         let inside = i >= 0 && j >= 0 && (i as usize) < self.width && (j as usize) < self.height;
-        let base = if inside && self.free[j as usize * self.width + i as usize] {
+        if inside && self.free[j as usize * self.width + i as usize] {
             self.epsilon_free
         } else {
             self.epsilon
-        };
-        let Some(tree) = &self.tree else {
-            return base.ln();
-        };
-        let d2 = tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
-        (base + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
+        }
+    }
+
+    /// The value at `p`, its nearest obstacle point `d2` (squared) away.
+    fn value(&self, p: Point2, d2: f64) -> f64 {
+        (self.base_at(p) + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
     }
 
     /// The field's max-pooled levels.
@@ -321,6 +380,19 @@ impl LikelihoodField {
     pub(crate) fn raw(&self) -> ((i64, i64), usize, usize, &[f32]) {
         (self.min_cell, self.width, self.height, &self.values)
     }
+}
+
+/// Candidate nearest obstacle points for a set of endpoints, for exact
+/// queries within `reach_m` of where each endpoint started
+/// ([`LikelihoodField::neighbourhood`]): refinement moves a pose by little,
+/// so each endpoint's nearest obstacle is one of a few known points.
+#[derive(Debug, Clone)]
+pub(crate) struct Neighbourhood {
+    /// How far a query may lie from its endpoint's start, metres.
+    pub reach_m: f64,
+    /// Endpoint `k`'s candidates are `candidates[offsets[k]..offsets[k + 1]]`.
+    offsets: Vec<u32>,
+    candidates: Vec<[f64; 2]>,
 }
 
 #[cfg(test)]
@@ -414,6 +486,33 @@ mod tests {
         assert_eq!(part.cell(50, 50), part.floor(), "outside the region");
         let p = Point2::new(1.5, 0.51);
         assert!((part.exact(p) - whole.exact(p)).abs() < 1e-12);
+    }
+
+    /// Within reach of its start, an endpoint's exact value from its
+    /// candidates is the k-d tree's to the bit.
+    #[test]
+    fn a_neighbourhood_gives_the_exact_value() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let pts: Vec<Point2> = (0..500)
+            .map(|_| Point2::new(rng.random_range(0.0..1.0), rng.random_range(0.0..1.0)))
+            .collect();
+        let f = LikelihoodField::from_points(&pts, 0.01, 0.015, 0.2);
+        let starts: Vec<Point2> = (0..200)
+            .map(|_| Point2::new(rng.random_range(-0.1..1.1), rng.random_range(-0.1..1.1)))
+            .collect();
+        let reach = 0.01;
+        let near = f.neighbourhood(&starts, reach);
+        let mut checked = 0;
+        for (k, s) in starts.iter().enumerate() {
+            for _ in 0..20 {
+                let (r, a): (f64, f64) = (rng.random_range(0.0..reach), rng.random_range(0.0..6.3));
+                let q = Point2::new(s.x + r * a.cos(), s.y + r * a.sin());
+                assert_eq!(f.exact_near(&near, k, q).to_bits(), f.exact(q).to_bits(), "{q:?}");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 4000);
     }
 
     #[test]
