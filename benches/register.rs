@@ -3,8 +3,9 @@
 //!
 //! - `register_sweep`: the second sweep's 360° profile against the map of
 //!   the first (from the true poses), starting from the pose its commanded
-//!   forward move predicts: the full correlative search and refinement,
-//!   beside the cost of scoring one pose on the lattice and exactly (k-d
+//!   forward move predicts: the correlative search and refinement, the
+//!   lattice searched exhaustively beside branch and bound, and beside them
+//!   the cost of scoring one pose on the lattice and exactly (k-d
 //!   tree), which is why the search runs on the lattice.
 //! - `map_dataset`: images to map end to end (profiles, sweeps,
 //!   registration and refinement, the grid), and `build_map` alone.
@@ -16,7 +17,9 @@ use pirouette::io::{Dataset, Motion};
 use pirouette::mapping::{build_map, MapConfig};
 use pirouette::pipeline;
 use pirouette::profile::sweep::SweepConfig;
-use pirouette::register::{endpoints, register, thin_points, LikelihoodField, MotionNoise, PosePrior};
+use pirouette::register::{
+    endpoints, register, thin_points, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Search,
+};
 use pirouette::vision::VisionConfig;
 use std::hint::black_box;
 
@@ -99,9 +102,34 @@ fn benches(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("register_sweep");
     group.throughput(Throughput::Elements(1));
-    group.bench_function("correlative_search_and_refine", |b| {
-        b.iter(|| register(black_box(&field), black_box(&points), &prior, r).expect("registers"))
-    });
+    // The same search two ways: every lattice pose scored, and branch and
+    // bound (which finds the same poses; a fresh field each time, so that
+    // its max-pooled levels are built inside the timing as in a map). Once
+    // from the forward move's prior, once from a wide one (±1 m, ±12°, as
+    // after a turn whose command erred: about 9 million lattice poses).
+    let wide = PosePrior {
+        sigma_forward_m: 0.35,
+        sigma_left_m: 0.35,
+        sigma_theta_rad: 4f64.to_radians(),
+        ..prior
+    };
+    for (case, prior) in [("forward", &prior), ("wide", &wide)] {
+        for (name, search) in [
+            ("exhaustive", Search::Exhaustive),
+            ("branch_and_bound", Search::BranchAndBound),
+        ] {
+            let config = RegisterConfig { search, ..r.clone() };
+            group.bench_function(format!("{case}/{name}"), |b| {
+                b.iter_batched(
+                    || field.clone_without_levels(),
+                    |field| {
+                        register(black_box(&field), black_box(&points), prior, &config).expect("registers")
+                    },
+                    criterion::BatchSize::LargeInput,
+                )
+            });
+        }
+    }
     let s = field.resolution_m();
     group.bench_function("one_pose_lattice", |b| {
         b.iter(|| {

@@ -371,6 +371,19 @@ impl LikelihoodField {
         (self.base_at(p) + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
     }
 
+    /// A copy of the field without the search's max-pooled levels, which
+    /// the copy builds again on first use (for benchmarks that time it).
+    pub fn clone_without_levels(&self) -> Self {
+        Self {
+            pyramid: Pyramid::default(),
+            tree: self.tree.clone(),
+            coords: self.coords.clone(),
+            values: self.values.clone(),
+            free: self.free.clone(),
+            ..*self
+        }
+    }
+
     /// The field's max-pooled levels.
     pub(crate) fn pyramid(&self) -> &Pyramid {
         &self.pyramid
