@@ -103,8 +103,8 @@ fn benches(c: &mut Criterion) {
     let mut group = c.benchmark_group("register_sweep");
     group.throughput(Throughput::Elements(1));
     // The same search two ways: every lattice pose scored, and branch and
-    // bound (which finds the same poses; a fresh field each time, so that
-    // its max-pooled levels are built inside the timing as in a map). Once
+    // bound (which finds the same poses, and builds its max-pooled levels
+    // of the field inside the timing). Once
     // from the forward move's prior, once from a wide one (±1 m, ±12°, as
     // after a turn whose command erred: about 9 million lattice poses).
     let wide = PosePrior {

@@ -26,27 +26,20 @@ use std::sync::OnceLock;
 /// than any search window (at 1 cm cells, 20 m).
 pub(crate) const MAX_LEVELS: usize = 12;
 
-/// Max-pooled levels of a likelihood field, built on first use: level `h`
-/// holds at cell `(i, j)` the largest field value over the cells
-/// `[i, i + 2ʰ) × [j, j + 2ʰ)` (the floor beyond the field).
+/// Max-pooled levels of a likelihood field, each built on first use (by
+/// whichever search thread needs it first): level `h` holds at cell
+/// `(i, j)` the largest field value over the cells `[i, i + 2ʰ) × [j, j +
+/// 2ʰ)` (the floor beyond the field). One search's, dropped with it.
 ///
 /// # Memory
 /// Four bytes per cell of the field's extent per level used, each level
 /// `2ʰ − 1` cells wider and taller than the field.
-#[derive(Clone, Default)]
-pub(crate) struct Pyramid {
+pub(crate) struct Pyramid<'f> {
+    field: &'f LikelihoodField,
     levels: [OnceLock<Level>; MAX_LEVELS],
 }
 
-impl std::fmt::Debug for Pyramid {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let built = self.levels.iter().filter(|l| l.get().is_some()).count();
-        write!(f, "Pyramid {{ levels built: {built} }}")
-    }
-}
-
 /// One level of a [`Pyramid`]: a block of cells from `origin`, row-major.
-#[derive(Clone)]
 pub(crate) struct Level {
     origin: (i64, i64),
     width: usize,
@@ -120,22 +113,30 @@ impl Level {
     }
 }
 
-impl Pyramid {
-    /// Level `h` of `field`'s pyramid (level 0 is the field itself),
-    /// building it and the levels below on first use.
-    pub(crate) fn level<'p>(&'p self, field: &LikelihoodField, h: usize) -> &'p Level {
+impl<'f> Pyramid<'f> {
+    /// The pyramid of `field`, no level built yet.
+    pub(crate) fn new(field: &'f LikelihoodField) -> Self {
+        Self {
+            field,
+            levels: Default::default(),
+        }
+    }
+
+    /// Level `h` (level 0 is the field itself), building it and the levels
+    /// below on first use.
+    pub(crate) fn level(&self, h: usize) -> &Level {
         self.levels[h].get_or_init(|| {
             if h == 0 {
-                let (origin, width, height, values) = field.raw();
+                let (origin, width, height, values) = self.field.raw();
                 Level {
                     origin,
                     width,
                     height,
                     values: values.to_vec(),
-                    floor: field.floor(),
+                    floor: self.field.floor(),
                 }
             } else {
-                self.level(field, h - 1).pooled(1 << (h - 1))
+                self.level(h - 1).pooled(1 << (h - 1))
             }
         })
     }
@@ -262,7 +263,7 @@ pub(crate) struct Kept {
 /// surely all that reach the final best plus `margin_ln`. `nodes` counts
 /// the blocks and poses scored.
 pub(crate) fn search_rotation(
-    field: &LikelihoodField,
+    pyramid: &Pyramid,
     cells: &[(i64, i64)],
     block: &Block,
     prior: &impl PriorTerm,
@@ -275,7 +276,7 @@ pub(crate) fn search_rotation(
     // The bound of the block of side 2ʰ from `(a0, b0)`, clipped to the
     // lattice; at h = 0 the pose's exact score.
     let bound = |a0: i64, b0: i64, h: usize| -> f64 {
-        let level = field.pyramid().level(field, h);
+        let level = pyramid.level(h);
         let sum = level.sum(cells, a0, b0) as f64;
         if h == 0 {
             sum + prior.at(a0, b0)
@@ -335,11 +336,11 @@ mod tests {
             .map(|_| Point2::new(rng.random_range(0.0..0.3), rng.random_range(-0.1..0.2)))
             .collect();
         let field = LikelihoodField::from_points(&pts, 0.01, 0.015, 0.2);
-        let pyramid = Pyramid::default();
+        let pyramid = Pyramid::new(&field);
         let (min, w, h, _) = field.raw();
         for level in 1..5usize {
             let side = 1i64 << level;
-            let l = pyramid.level(&field, level);
+            let l = pyramid.level(level);
             // Every cell whose block touches the field, and a ring beyond.
             for j in min.1 - side - 2..min.1 + h as i64 + 2 {
                 for i in min.0 - side - 2..min.0 + w as i64 + 2 {

@@ -2,7 +2,7 @@
 //! over translation and rotation, then a local refinement below one cell,
 //! with the covariance of the pose from the spread of the search.
 
-use crate::bound::{search_rotation, Block, GaussianTerm, Kept, SharedBest};
+use crate::bound::{search_rotation, Block, GaussianTerm, Kept, Pyramid, SharedBest};
 use crate::field::{LikelihoodField, Neighbourhood};
 use crate::RegisterError;
 use nalgebra::{Matrix3, Vector3};
@@ -457,6 +457,7 @@ fn bounded(
 ) -> (Vec<KeptPose>, usize) {
     let best = SharedBest::new();
     let nodes = AtomicUsize::new(0);
+    let pyramid = Pyramid::new(field);
     let block = Block {
         nx: lattice.nx,
         ny: lattice.ny,
@@ -472,7 +473,7 @@ fn bounded(
             res: lattice.res,
         };
         let cells = cells_at(kt);
-        search_rotation(field, &cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
+        search_rotation(&pyramid, &cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
             .into_iter()
             .map(|k| (kt, k))
             .collect()

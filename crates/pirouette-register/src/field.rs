@@ -1,6 +1,5 @@
 //! The likelihood field of a map: how well a point explains an obstacle.
 
-use crate::bound::Pyramid;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
@@ -23,8 +22,7 @@ use pirouette_grid::OccupancyGrid;
 /// would flatten the peak of a wall lying between two cell centres.
 ///
 /// # Memory
-/// Five bytes per cell of the map's extent (plus a border of `3σ`), the
-/// branch-and-bound search's levels once searched (see `Pyramid`), and
+/// Five bytes per cell of the map's extent (plus a border of `3σ`), and
 /// the k-d tree of the points (about 20 bytes each: coordinates and an
 /// index).
 #[derive(Debug, Clone)]
@@ -46,9 +44,6 @@ pub struct LikelihoodField {
     free: Vec<bool>,
     floor: f32,
     occupied: usize,
-    /// Max-pooled levels for the branch-and-bound search, built on first
-    /// use.
-    pyramid: Pyramid,
 }
 
 impl LikelihoodField {
@@ -198,7 +193,6 @@ impl LikelihoodField {
                 free: Vec::new(),
                 floor,
                 occupied: 0,
-                pyramid: Pyramid::default(),
             };
         };
         let width = (max_cell.0 - min_cell.0 + 1) as usize;
@@ -268,7 +262,6 @@ impl LikelihoodField {
             free,
             floor,
             occupied: points.len(),
-            pyramid: Pyramid::default(),
         }
     }
 
@@ -369,24 +362,6 @@ impl LikelihoodField {
     /// The value at `p`, its nearest obstacle point `d2` (squared) away.
     fn value(&self, p: Point2, d2: f64) -> f64 {
         (self.base_at(p) + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
-    }
-
-    /// A copy of the field without the search's max-pooled levels, which
-    /// the copy builds again on first use (for benchmarks that time it).
-    pub fn clone_without_levels(&self) -> Self {
-        Self {
-            pyramid: Pyramid::default(),
-            tree: self.tree.clone(),
-            coords: self.coords.clone(),
-            values: self.values.clone(),
-            free: self.free.clone(),
-            ..*self
-        }
-    }
-
-    /// The field's max-pooled levels.
-    pub(crate) fn pyramid(&self) -> &Pyramid {
-        &self.pyramid
     }
 
     /// The stored block: `(min_cell, width, height, values)`, row-major.
