@@ -125,6 +125,10 @@ fn open_camera_dataset(path: &Path) -> Result<Dataset> {
 }
 
 /// Profiles every frame and assembles the sweeps, with a progress bar.
+/// A rival peak of a sweep's registration within this many nats of the
+/// best is reported (its weight is `e⁻¹⁰ ≈ 4.5·10⁻⁵` of the best's or more).
+const RIVAL_REPORTED_LN: f64 = 10.0;
+
 pub fn profile_dataset(ds: &Dataset, options: &MapOptions) -> Result<Profiled> {
     options.check()?;
     let run = options.sweep.run_all(ds)?;
@@ -226,6 +230,16 @@ pub fn map(a: MapArgs) -> Result<()> {
                     reg.matched,
                     reg.points
                 )?;
+                // A look-alike pose the search found nearly as good.
+                if let Some(r) = reg.rival.filter(|r| r.below_best_ln < RIVAL_REPORTED_LN) {
+                    let off = reg.pose.between(&r.pose);
+                    outln!(
+                        "          a rival pose {:.1} cm, {:.2}° away scores only {:.1} nats lower: the match may be ambiguous",
+                        off.translation().norm() * 100.0,
+                        off.theta.to_degrees(),
+                        r.below_best_ln
+                    )?;
+                }
             }
             _ => outln!(
                 "sweep {:>2}  ({:>6.3}, {:>6.3}) m {:>7.2}°  defines the map frame",

@@ -451,6 +451,9 @@ pub fn build_map(
         }
         if let Some(reg) = p.registration.as_mut() {
             reg.pose = origin * reg.pose;
+            if let Some(r) = reg.rival.as_mut() {
+                r.pose = origin * r.pose;
+            }
             reg.covariance = rotate * reg.covariance * rotate.transpose();
         }
     }
