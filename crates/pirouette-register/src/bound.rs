@@ -20,23 +20,21 @@
 use crate::field::LikelihoodField;
 use pirouette_geom::wrap_angle;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::OnceLock;
 
-/// Levels of a [`Pyramid`] at the most: blocks up to 2¹¹ cells a side, wider
-/// than any search window (at 1 cm cells, 20 m).
-pub(crate) const MAX_LEVELS: usize = 12;
+/// The coarsest level a search starts from: blocks of `2⁶ = 64` cells a
+/// side. Wider windows start from several blocks; more levels would cost
+/// more to build than they save.
+pub(crate) const TOP_LEVEL: usize = 6;
 
-/// Max-pooled levels of a likelihood field, each built on first use (by
-/// whichever search thread needs it first): level `h` holds at cell
-/// `(i, j)` the largest field value over the cells `[i, i + 2ʰ) × [j, j +
-/// 2ʰ)` (the floor beyond the field). One search's, dropped with it.
+/// Max-pooled levels of a likelihood field over the cells one search can
+/// reach: level `h` holds at cell `(i, j)` the largest field value over the
+/// cells `[i, i + 2ʰ) × [j, j + 2ʰ)` (the floor beyond the field).
 ///
 /// # Memory
-/// Four bytes per cell of the field's extent per level used, each level
-/// `2ʰ − 1` cells wider and taller than the field.
-pub(crate) struct Pyramid<'f> {
-    field: &'f LikelihoodField,
-    levels: [OnceLock<Level>; MAX_LEVELS],
+/// Four bytes per cell of the reach (the endpoints' cells over every
+/// rotation, widened by the translation window and a top block) per level.
+pub(crate) struct Pyramid {
+    levels: Vec<Level>,
 }
 
 /// One level of a [`Pyramid`]: a block of cells from `origin`, row-major.
@@ -49,7 +47,8 @@ pub(crate) struct Level {
 }
 
 impl Level {
-    /// The value at cell `(i, j)`, the floor outside the block.
+    /// The value at cell `(i, j)`, the floor outside the block (where no
+    /// search looks).
     #[inline]
     fn get(&self, i: i64, j: i64) -> f32 {
         let (x, y) = (i.wrapping_sub(self.origin.0), j.wrapping_sub(self.origin.1));
@@ -71,74 +70,65 @@ impl Level {
         s
     }
 
-    /// The next level up: the largest of four blocks half the size, each
-    /// `half` cells a side, taken along rows first, then along columns.
-    fn pooled(&self, half: i64) -> Level {
-        let grow = half as usize;
+    /// The next level up over the same block: the larger of two blocks
+    /// `half` cells apart, along rows, then along columns. The last `half`
+    /// columns and rows take the floor for what lies beyond the block, so
+    /// a level is exact `2ʰ − 1` cells short of the block's far edges.
+    fn pooled(&self, half: usize) -> Level {
         let (w, h) = (self.width, self.height);
-        let width = w + grow;
-        let floor = self.floor;
-        // Along rows: `row[x]` of the new width holds the larger of the old
-        // row's cells `x − half` and `x` (local), the floor beyond it.
-        let mut rows = vec![floor; width * h];
-        for (old, new) in self
-            .values
-            .chunks_exact(w.max(1))
-            .zip(rows.chunks_exact_mut(width))
-        {
-            for (v, &o) in new[..w].iter_mut().zip(old) {
-                *v = v.max(o);
-            }
-            for (v, &o) in new[grow..].iter_mut().zip(old) {
-                *v = v.max(o);
+        let mut values = self.values.clone();
+        for row in values.chunks_exact_mut(w.max(1)) {
+            for x in 0..w {
+                let far = if x + half < w { row[x + half] } else { self.floor };
+                row[x] = row[x].max(far);
             }
         }
-        // Along columns, likewise.
-        let height = h + grow;
-        let mut values = vec![floor; width * height];
-        for (y, row) in rows.chunks_exact(width).enumerate() {
-            for at in [y, y + grow] {
-                for (v, &o) in values[at * width..][..width].iter_mut().zip(row) {
-                    *v = v.max(o);
-                }
+        for y in 0..h {
+            let (near, far) = values.split_at_mut(((y + half).min(h)) * w);
+            let row = &mut near[y * w..][..w];
+            if y + half < h {
+                row.iter_mut().zip(&far[..w]).for_each(|(v, &f)| *v = v.max(f));
+            } else {
+                row.iter_mut().for_each(|v| *v = v.max(self.floor));
             }
         }
-        Level {
-            origin: (self.origin.0 - half, self.origin.1 - half),
-            width,
-            height,
-            values,
-            floor,
-        }
+        Level { values, ..*self }
     }
 }
 
-impl<'f> Pyramid<'f> {
-    /// The pyramid of `field`, no level built yet.
-    pub(crate) fn new(field: &'f LikelihoodField) -> Self {
-        Self {
-            field,
-            levels: Default::default(),
+impl Pyramid {
+    /// Levels `0..=top` of `field` over the cells from `lo` to `hi`
+    /// (inclusive) that a search looks up at level 0; the block is widened
+    /// by a top block so that every level is exact where it is looked up.
+    pub(crate) fn new(field: &LikelihoodField, lo: (i64, i64), hi: (i64, i64), top: usize) -> Self {
+        let pad = 1i64 << top;
+        let (width, height) = ((hi.0 - lo.0 + pad) as usize, (hi.1 - lo.1 + pad) as usize);
+        let mut values = Vec::with_capacity(width * height);
+        for j in lo.1..lo.1 + height as i64 {
+            values.extend((lo.0..lo.0 + width as i64).map(|i| field.cell(i, j)));
         }
+        let mut levels = vec![Level {
+            origin: lo,
+            width,
+            height,
+            values,
+            floor: field.floor(),
+        }];
+        for h in 1..=top {
+            let next = levels[h - 1].pooled(1 << (h - 1));
+            levels.push(next);
+        }
+        Self { levels }
     }
 
-    /// Level `h` (level 0 is the field itself), building it and the levels
-    /// below on first use.
+    /// Level `h`.
     pub(crate) fn level(&self, h: usize) -> &Level {
-        self.levels[h].get_or_init(|| {
-            if h == 0 {
-                let (origin, width, height, values) = self.field.raw();
-                Level {
-                    origin,
-                    width,
-                    height,
-                    values: values.to_vec(),
-                    floor: self.field.floor(),
-                }
-            } else {
-                self.level(h - 1).pooled(1 << (h - 1))
-            }
-        })
+        &self.levels[h]
+    }
+
+    /// The coarsest level.
+    pub(crate) fn top(&self) -> usize {
+        self.levels.len() - 1
     }
 }
 
@@ -271,8 +261,7 @@ pub(crate) fn search_rotation(
     margin_ln: f64,
     nodes: &AtomicUsize,
 ) -> Vec<Kept> {
-    let side = (2 * block.nx.max(block.ny) + 1) as u64;
-    let top = (side.next_power_of_two().trailing_zeros() as usize).min(MAX_LEVELS - 1);
+    let top = pyramid.top();
     // The bound of the block of side 2ʰ from `(a0, b0)`, clipped to the
     // lattice; at h = 0 the pose's exact score.
     let bound = |a0: i64, b0: i64, h: usize| -> f64 {
@@ -286,8 +275,16 @@ pub(crate) fn search_rotation(
         }
     };
     let mut kept = Vec::new();
-    let mut scored = 1;
-    let mut stack = vec![(-block.nx, -block.ny, top, bound(-block.nx, -block.ny, top))];
+    // The top blocks tile the lattice; the most promising is searched
+    // first.
+    let step = 1usize << top;
+    let mut stack: Vec<(i64, i64, usize, f64)> = (-block.ny..=block.ny)
+        .step_by(step)
+        .flat_map(|b0| (-block.nx..=block.nx).step_by(step).map(move |a0| (a0, b0)))
+        .map(|(a0, b0)| (a0, b0, top, bound(a0, b0, top)))
+        .collect();
+    let mut scored = stack.len();
+    stack.sort_by(|x, y| x.3.total_cmp(&y.3));
     let mut children = Vec::with_capacity(4);
     while let Some((a0, b0, h, value)) = stack.pop() {
         if value < best.get() + margin_ln {
@@ -336,14 +333,20 @@ mod tests {
             .map(|_| Point2::new(rng.random_range(0.0..0.3), rng.random_range(-0.1..0.2)))
             .collect();
         let field = LikelihoodField::from_points(&pts, 0.01, 0.015, 0.2);
-        let pyramid = Pyramid::new(&field);
         let (min, w, h, _) = field.raw();
-        for level in 1..5usize {
+        // A block reaching beyond the field on every side.
+        let (lo, hi) = (
+            (min.0 - 20, min.1 - 20),
+            (min.0 + w as i64 + 20, min.1 + h as i64 + 20),
+        );
+        let pyramid = Pyramid::new(&field, lo, hi, 4);
+        assert_eq!(pyramid.top(), 4);
+        for level in 0..=4usize {
             let side = 1i64 << level;
             let l = pyramid.level(level);
-            // Every cell whose block touches the field, and a ring beyond.
-            for j in min.1 - side - 2..min.1 + h as i64 + 2 {
-                for i in min.0 - side - 2..min.0 + w as i64 + 2 {
+            // Every cell a search from the block's cells looks up.
+            for j in lo.1..=hi.1 {
+                for i in lo.0..=hi.0 {
                     let mut most = f32::NEG_INFINITY;
                     for y in j..j + side {
                         for x in i..i + side {

@@ -2,7 +2,7 @@
 //! over translation and rotation, then a local refinement below one cell,
 //! with the covariance of the pose from the spread of the search.
 
-use crate::bound::{search_rotation, Block, GaussianTerm, Kept, Pyramid, SharedBest};
+use crate::bound::{search_rotation, Block, GaussianTerm, Kept, Pyramid, SharedBest, TOP_LEVEL};
 use crate::field::{LikelihoodField, Neighbourhood};
 use crate::RegisterError;
 use nalgebra::{Matrix3, Vector3};
@@ -457,11 +457,28 @@ fn bounded(
 ) -> (Vec<KeptPose>, usize) {
     let best = SharedBest::new();
     let nodes = AtomicUsize::new(0);
-    let pyramid = Pyramid::new(field);
     let block = Block {
         nx: lattice.nx,
         ny: lattice.ny,
     };
+    // Every rotation's endpoint cells, and the cells the search can reach
+    // from them: the pyramid's block.
+    let cells: Vec<Vec<(i64, i64)>> = (-nt..=nt).into_par_iter().map(cells_at).collect();
+    let (lo, hi) = cells.iter().flatten().fold(
+        ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN)),
+        |(lo, hi), &(i, j)| ((lo.0.min(i), lo.1.min(j)), (hi.0.max(i), hi.1.max(j))),
+    );
+    if lo.0 > hi.0 {
+        return (Vec::new(), 0);
+    }
+    let side = (2 * block.nx.max(block.ny) + 1) as u64;
+    let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
+    let pyramid = Pyramid::new(
+        field,
+        (lo.0 - block.nx, lo.1 - block.ny),
+        (hi.0 + block.nx, hi.1 + block.ny),
+        top,
+    );
     let prior = lattice.prior;
     let form = GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m);
     let search = |kt: i64| -> Vec<KeptPose> {
@@ -472,8 +489,8 @@ fn bounded(
             form,
             res: lattice.res,
         };
-        let cells = cells_at(kt);
-        search_rotation(&pyramid, &cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
+        let cells = &cells[(kt + nt) as usize];
+        search_rotation(&pyramid, cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
             .into_iter()
             .map(|k| (kt, k))
             .collect()
