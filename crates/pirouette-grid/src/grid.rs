@@ -172,8 +172,55 @@ impl OccupancyGrid {
 
     /// Probability that cell `(i, j)` is occupied.
     pub fn probability(&self, i: i64, j: i64) -> f64 {
-        let l = self.log_odds(i, j) as f64 + logit(self.config.prior) as f64;
+        self.probability_of(self.log_odds(i, j))
+    }
+
+    /// The probability of a cell holding log-odds `l`.
+    fn probability_of(&self, l: f32) -> f64 {
+        let l = l as f64 + logit(self.config.prior) as f64;
         1.0 / (1.0 + (-l).exp())
+    }
+
+    /// The least log-odds (as [`OccupancyGrid::log_odds`] holds them) whose
+    /// probability is at least `p`, `+∞` where none is: a cell is below `p`
+    /// exactly when its log-odds are below this, so a scan of many cells
+    /// compares numbers instead of taking each one's exponential.
+    pub fn log_odds_reaching(&self, p: f64) -> f32 {
+        // Bisection over the finite f32 values in their order (the bit
+        // patterns of the non-negative ones count up, of the negative ones
+        // down): the probability never falls as the log-odds rise.
+        let key = |v: f32| {
+            let b = v.to_bits() as i32 as i64;
+            if b < 0 {
+                i32::MIN as i64 - b
+            } else {
+                b
+            }
+        };
+        let value = |k: i64| {
+            f32::from_bits(if k < 0 {
+                (i32::MIN as i64 - k) as u32
+            } else {
+                k as u32
+            })
+        };
+        let (mut lo, mut hi) = (key(f32::MIN), key(f32::MAX));
+        if self.probability_of(f32::MAX) < p {
+            return f32::INFINITY;
+        }
+        if self.probability_of(f32::MIN) >= p {
+            return f32::MIN;
+        }
+        // probability(value(lo)) < p <= probability(value(hi)).
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if self.probability_of(value(mid)) >= p {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        value(hi)
     }
 
     /// Probability that the cell holding `(x, y)` is occupied.
@@ -340,6 +387,29 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_odds_reaching_a_probability_split_cells_as_the_probability_does() {
+        let mut g = OccupancyGrid::new(GridConfig::default()).unwrap();
+        for p in [0.196, 0.5, 0.65, 0.999, 1e-9] {
+            let l = g.log_odds_reaching(p);
+            assert!(g.probability_of(l) >= p, "{p}");
+            let below = f32::from_bits(if l > 0.0 { l.to_bits() - 1 } else { l.to_bits() + 1 });
+            assert!(g.probability_of(below) < p, "{p}");
+        }
+        // Every log-odds a grid can hold, near the threshold and far.
+        let l = g.log_odds_reaching(FREE_THRESH);
+        let mut checked = 0;
+        for k in -2000..2000 {
+            let v = l + k as f32 * 1e-3;
+            assert_eq!(v < l, g.probability_of(v) < FREE_THRESH, "{v}");
+            checked += 1;
+        }
+        assert_eq!(checked, 4000);
+        assert_eq!(g.log_odds_reaching(2.0), f32::INFINITY);
+        g.config.prior = 0.5;
+        assert!(g.log_odds_reaching(0.5).abs() < 1e-6);
+    }
 
     fn wall_profile(range: f32) -> Rop {
         let mut rop = Rop::covering(-0.5, 0.5, 0.25f64.to_radians(), 0.9).unwrap();

@@ -228,9 +228,10 @@ impl LikelihoodField {
         }
         let mut free = vec![false; width * height];
         if let Some((grid, threshold)) = free_space {
+            let reaching = grid.log_odds_reaching(threshold);
             for (k, f) in free.iter_mut().enumerate() {
                 let (i, j) = (min_cell.0 + (k % width) as i64, min_cell.1 + (k / width) as i64);
-                *f = grid.probability(i, j) < threshold;
+                *f = grid.log_odds(i, j) < reaching;
             }
         }
         // Most cells lie beyond every point's reach, where the value is
