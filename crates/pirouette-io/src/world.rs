@@ -74,16 +74,38 @@ impl Obstacle {
     /// obstacle's footprint: the entry and exit parameters and the outward
     /// normal at the entry. A ray starting inside has `t_enter < 0`.
     pub fn ray_interval(&self, origin: [f64; 2], dir: [f64; 2]) -> Option<FootprintHit> {
+        self.ray_interval_turned(origin, dir, self.yaw_sin_cos())
+    }
+
+    /// A circle holding the footprint: its centre and radius, metres.
+    pub fn bounding_circle(&self) -> ([f64; 2], f64) {
         match *self {
-            Obstacle::Box {
-                center,
-                size,
-                yaw_deg,
-                ..
-            } => {
-                let (s, c) = yaw_deg.to_radians().sin_cos();
+            Obstacle::Box { center, size, .. } => (center, (size[0] / 2.0).hypot(size[1] / 2.0)),
+            Obstacle::Cylinder { center, radius, .. } => (center, radius),
+        }
+    }
+
+    /// The `(sin, cos)` of a box's yaw (`(0, 1)` for a cylinder), for
+    /// [`Obstacle::ray_interval_turned`].
+    pub fn yaw_sin_cos(&self) -> (f64, f64) {
+        match *self {
+            Obstacle::Box { yaw_deg, .. } => yaw_deg.to_radians().sin_cos(),
+            Obstacle::Cylinder { .. } => (0.0, 1.0),
+        }
+    }
+
+    /// [`Obstacle::ray_interval`] given the obstacle's
+    /// [`Obstacle::yaw_sin_cos`], for callers that cast many rays.
+    pub fn ray_interval_turned(
+        &self,
+        origin: [f64; 2],
+        dir: [f64; 2],
+        (s, c): (f64, f64),
+    ) -> Option<FootprintHit> {
+        match *self {
+            Obstacle::Box { center, size, .. } => {
                 // Into the box's own frame.
-                let lo = box_local(center, yaw_deg, origin);
+                let lo = box_local(center, (s, c), origin);
                 let ld = [c * dir[0] + s * dir[1], -s * dir[0] + c * dir[1]];
                 let half = [size[0] / 2.0, size[1] / 2.0];
                 let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -162,7 +184,7 @@ impl Obstacle {
                 yaw_deg,
                 ..
             } => {
-                let local = box_local(center, yaw_deg, p);
+                let local = box_local(center, yaw_deg.to_radians().sin_cos(), p);
                 let dx = local[0].abs() - size[0] / 2.0;
                 let dy = local[1].abs() - size[1] / 2.0;
                 if dx > 0.0 || dy > 0.0 {
@@ -210,8 +232,7 @@ impl Obstacle {
 
 /// A floor point in the frame of a box centred at `center`, turned by
 /// `yaw_deg`.
-fn box_local(center: [f64; 2], yaw_deg: f64, p: [f64; 2]) -> [f64; 2] {
-    let (s, c) = yaw_deg.to_radians().sin_cos();
+fn box_local(center: [f64; 2], (s, c): (f64, f64), p: [f64; 2]) -> [f64; 2] {
     let (ox, oy) = (p[0] - center[0], p[1] - center[1]);
     [c * ox + s * oy, -s * ox + c * oy]
 }

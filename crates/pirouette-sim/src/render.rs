@@ -25,8 +25,18 @@ pub struct Renderer {
     /// Slow floor variation: (kx, ky, phase) per component, rad/m.
     waves: Vec<[f64; 3]>,
     specks: Vec<Speck>,
+    /// Which specks may cover each cell of a lattice of [`SPECK_CELL_M`]
+    /// over the floor: indices into `specks`, ascending.
+    speck_cells: std::collections::HashMap<(i64, i64), Vec<u32>>,
+    /// Each obstacle's [`Obstacle::yaw_sin_cos`](pirouette_io::Obstacle::yaw_sin_cos),
+    /// and the centre and squared radius of a circle a little wider than
+    /// its footprint: a ray whose line passes outside it cannot hit.
+    turned: Vec<((f64, f64), [f64; 2], f64)>,
     seed: u64,
 }
+
+/// Side of the cells that index the specks, metres.
+const SPECK_CELL_M: f64 = 0.05;
 
 /// Side of the fine floor-texture cells, metres.
 const TEXTURE_CELL_M: f64 = 0.005;
@@ -64,7 +74,7 @@ impl Renderer {
         let [x0, y0, x1, y1] = scene.world.bounds;
         let area = ((x1 - x0) * (y1 - y0)).abs();
         let count = (area * scene.look.specks_per_m2).round() as usize;
-        let specks = (0..count)
+        let specks: Vec<Speck> = (0..count)
             .map(|_| {
                 let bright = rng.random_bool(0.5);
                 let level = if bright {
@@ -82,12 +92,34 @@ impl Renderer {
                 }
             })
             .collect();
+        let mut speck_cells: std::collections::HashMap<(i64, i64), Vec<u32>> = Default::default();
+        for (k, s) in specks.iter().enumerate() {
+            let cell = |v: f64| (v / SPECK_CELL_M).floor() as i64;
+            let (r, [x, y]) = (s.radius_m, s.centre);
+            for i in cell(x - r)..=cell(x + r) {
+                for j in cell(y - r)..=cell(y + r) {
+                    speck_cells.entry((i, j)).or_default().push(k as u32);
+                }
+            }
+        }
         Self {
             camera: scene.camera.pinhole(),
+            turned: scene
+                .world
+                .obstacles
+                .iter()
+                .map(|o| {
+                    let (centre, r) = o.bounding_circle();
+                    // Wider by far more than rounding can move a hit.
+                    let r = r * (1.0 + 1e-6) + 1e-9;
+                    (o.yaw_sin_cos(), centre, r * r)
+                })
+                .collect(),
             scene: scene.clone(),
             light: [l[0] / n, l[1] / n, l[2] / n],
             waves,
             specks,
+            speck_cells,
             seed,
         }
     }
@@ -100,11 +132,17 @@ impl Renderer {
     }
 
     fn floor_albedo(&self, x: f64, y: f64) -> [f64; 3] {
-        if let Some(s) = self
-            .specks
-            .iter()
-            .find(|s| (x - s.centre[0]).hypot(y - s.centre[1]) <= s.radius_m)
-        {
+        // The first speck covering the point: its cell lists every speck
+        // that reaches into it, in order.
+        let cell = (
+            (x / SPECK_CELL_M).floor() as i64,
+            (y / SPECK_CELL_M).floor() as i64,
+        );
+        if let Some(s) = self.speck_cells.get(&cell).and_then(|list| {
+            list.iter()
+                .map(|&k| &self.specks[k as usize])
+                .find(|s| (x - s.centre[0]).hypot(y - s.centre[1]) <= s.radius_m)
+        }) {
             return s.rgb;
         }
         let look = &self.scene.look;
@@ -132,8 +170,26 @@ impl Renderer {
             f64::INFINITY
         };
         let mut hit: Option<([f64; 3], [f64; 3])> = None;
-        for o in &self.scene.world.obstacles {
-            let Some(h) = o.ray_interval([origin[0], origin[1]], [dir[0], dir[1]]) else {
+        let d2 = dir[0] * dir[0] + dir[1] * dir[1];
+        for (o, &(turned, centre, r2)) in self.scene.world.obstacles.iter().zip(&self.turned) {
+            // The ray's line passes the circle's centre at distance
+            // |cross| / |dir|.
+            let (ox, oy) = (centre[0] - origin[0], centre[1] - origin[1]);
+            let cross = ox * dir[1] - oy * dir[0];
+            if cross * cross > r2 * d2 {
+                continue;
+            }
+            // Nor can a hit come before the nearest one so far, where even
+            // the circle's near side lies beyond it (a hit at t is t·|dir|
+            // from the origin, and at least the centre's distance less the
+            // radius).
+            if best_t.is_finite() {
+                let reach = best_t * d2.sqrt() * (1.0 + 1e-9) + r2.sqrt();
+                if ox * ox + oy * oy > reach * reach {
+                    continue;
+                }
+            }
+            let Some(h) = o.ray_interval_turned([origin[0], origin[1]], [dir[0], dir[1]], turned) else {
                 continue;
             };
             if h.t_enter < 0.0 || h.t_enter >= best_t {
