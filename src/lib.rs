@@ -7,6 +7,7 @@
 //! - [`camera`]: the paper's IPM and the pinhole model, pixel ↔ floor tables;
 //! - [`profile`]: the Radial Obstacle Profile, rotation matching, sweeps;
 //! - [`grid`]: the occupancy grid and map export;
+//! - [`graph`]: SE(2) pose graphs and their sparse optimiser;
 //! - [`register`]: registration of sweeps against the map;
 //! - [`io`]: the `rop-dataset/1` format and other files;
 //! - [`vision`]: floor segmentation and ROPs from images;
@@ -24,6 +25,7 @@
 
 pub use pirouette_camera as camera;
 pub use pirouette_geom as geom;
+pub use pirouette_graph as graph;
 pub use pirouette_grid as grid;
 pub use pirouette_io as io;
 pub use pirouette_profile as profile;

@@ -13,6 +13,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 mod camera;
+mod graph;
 mod map;
 mod plots;
 mod profile;
@@ -63,8 +64,10 @@ enum PlacesCommand {
 
 #[derive(Subcommand, Debug)]
 enum GraphCommand {
-    /// Optimise a 2D pose graph.
-    Optimise(GraphOptimiseArgs),
+    /// Optimise a 2D pose graph (g2o VERTEX_SE2 / EDGE_SE2) and write the
+    /// optimised graph; a file without vertices is initialised from its
+    /// edges.
+    Optimise(graph::GraphOptimiseArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -112,19 +115,6 @@ struct LocaliseArgs {
     json: bool,
 }
 
-/// Arguments of `pirouette graph optimise`.
-#[derive(clap::Args, Debug)]
-struct GraphOptimiseArgs {
-    /// The g2o file to optimise.
-    input: std::path::PathBuf,
-    /// The g2o file to write.
-    #[arg(long)]
-    out: std::path::PathBuf,
-    /// One JSON line of statistics on stdout.
-    #[arg(long)]
-    json: bool,
-}
-
 /// Runs the command line.
 pub fn run() -> Result<()> {
     let cli = Cli::parse();
@@ -137,7 +127,7 @@ pub fn run() -> Result<()> {
         Command::Map(a) => map::map(a),
         Command::Places(PlacesCommand::Build(_)) => not_yet("places build"),
         Command::Localise(_) => not_yet("localise"),
-        Command::Graph(GraphCommand::Optimise(_)) => not_yet("graph optimise"),
+        Command::Graph(GraphCommand::Optimise(a)) => graph::optimise(a),
         Command::Eval(EvalCommand::Profile(a)) => profile::eval_profile(a),
         Command::Eval(EvalCommand::Sweep(a)) => sweep::eval_sweep(a),
         Command::Eval(EvalCommand::Map(a)) => map::eval_map(a),
@@ -163,4 +153,22 @@ pub(crate) fn progress(len: usize, what: &str) -> indicatif::ProgressBar {
     );
     bar.set_message(what.to_string());
     bar
+}
+
+/// Checks, before any work, that `path` can be written as a file: it is
+/// not a folder, and its folder exists (or can be made) and takes a new
+/// file.
+pub(crate) fn check_output_file(path: &std::path::Path) -> Result<()> {
+    if path.is_dir() {
+        bail!("{}: is a folder; give a file name to write", path.display());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+    let probe = dir.join(format!(".pirouette-write-check.{}", std::process::id()));
+    std::fs::write(&probe, b"").with_context(|| format!("{}: cannot write in this folder", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
 }

@@ -29,6 +29,16 @@ pub enum IoError {
         /// The declared format.
         found: String,
     },
+    /// A line of a text file is malformed or holds a bad value.
+    #[error("{}:{line}: {problem}", path.display())]
+    Line {
+        /// The file.
+        path: PathBuf,
+        /// The line, from 1.
+        line: usize,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// A value is out of its valid range (non-finite, negative, missing).
     #[error("{}: {problem}", path.display())]
     Invalid {

@@ -7,6 +7,8 @@
 //! - [`TruthRop`]: a true radial profile of `truth/rop/`.
 //! - [`write_map_dir`], [`read_ros_map`], [`read_poses`], [`PoseRecord`]:
 //!   the folder of a map (ROS `map_server` files, picture, poses).
+//! - [`read_g2o`], [`write_g2o`], [`G2oGraph`]: 2D pose graphs in g2o's
+//!   text format.
 //! - [`atomic_write`]: every file is written to a temporary file, then
 //!   renamed, so a crash never leaves a half-written file.
 //!
@@ -23,6 +25,7 @@
 mod atomic;
 mod dataset;
 mod error;
+mod g2o;
 mod map_dir;
 mod world;
 
@@ -32,5 +35,6 @@ pub use dataset::{
     FORMAT_VERSION,
 };
 pub use error::IoError;
+pub use g2o::{read_g2o, write_g2o, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
 pub use map_dir::{names as map_names, read_poses, read_ros_map, tum, write_map_dir, PoseRecord};
 pub use world::{FootprintHit, Obstacle, World};
