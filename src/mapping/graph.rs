@@ -1,8 +1,9 @@
-//! A small 2D pose graph: poses joined by measured relative poses, solved
-//! by least squares with the first pose held.
+//! The sweeps' pose graph: poses joined by measured relative poses, solved
+//! by least squares ([`pirouette_graph`]) with the first pose held.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 use pirouette_geom::Pose2;
+use pirouette_graph::{optimise, Edge as GraphEdge, OptimiseConfig, PoseGraph, Solver};
 
 /// A relative pose measured between two nodes: node `j`'s pose in node
 /// `i`'s frame, with its information in `i`'s `(x, y, θ)`.
@@ -19,19 +20,22 @@ pub(crate) struct Edge {
 }
 
 impl Edge {
-    /// The edge's residual at poses `xi`, `xj`.
-    fn residual(&self, xi: &Pose2, xj: &Pose2) -> Vector3<f64> {
-        let pred = xi.between(xj);
-        Vector3::new(
-            pred.x - self.z.x,
-            pred.y - self.z.y,
-            pirouette_geom::wrap_angle(pred.theta - self.z.theta),
-        )
-    }
-
-    fn chi2(&self, poses: &[Pose2]) -> f64 {
-        let r = self.residual(&poses[self.i], &poses[self.j]);
-        (r.transpose() * self.info * r)[0]
+    /// The edge for [`pirouette_graph`], whose residual is taken in `z`'s
+    /// frame (`z⁻¹ · xᵢ⁻¹ · xⱼ`): the information turned into that frame,
+    /// so that the cost of any poses is the same.
+    fn to_graph(self) -> GraphEdge {
+        let (s, c) = self.z.theta.sin_cos();
+        // The residual in i's frame is R(θ_z) times the one in z's frame.
+        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let o = r.transpose() * self.info * r;
+        // Symmetric to the bit, as the graph checks.
+        let o = 0.5 * (o + o.transpose());
+        let information = [
+            [o[(0, 0)], o[(0, 1)], o[(0, 2)]],
+            [o[(1, 0)], o[(1, 1)], o[(1, 2)]],
+            [o[(2, 0)], o[(2, 1)], o[(2, 2)]],
+        ];
+        GraphEdge::new(self.i, self.j, self.z, information)
     }
 }
 
@@ -40,81 +44,47 @@ impl Edge {
 const EDGE_GATE: f64 = 16.27;
 
 /// The poses (the first held, which fixes the frame) that agree best with
-/// `edges` in the least-squares sense: Gauss-Newton from the given poses,
-/// then once more without the edges the first solution contradicts
-/// ([`EDGE_GATE`]).
-pub(crate) fn adjust(poses: &mut [Pose2], mut edges: Vec<Edge>) {
-    let n = poses.len();
-    if n < 2 {
+/// `edges` in the least-squares sense: Gauss-Newton from the given poses
+/// ([`pirouette_graph::optimise`]), then once more without the edges the
+/// first solution contradicts ([`EDGE_GATE`]). Poses stay as they were
+/// where the graph cannot be solved (a pose no edge reaches).
+pub(crate) fn adjust(poses: &mut [Pose2], edges: Vec<Edge>) {
+    if poses.len() < 2 {
         return;
     }
-    let dim = 3 * (n - 1);
+    let mut graph = PoseGraph::new(poses.to_vec());
+    graph.edges = edges.into_iter().map(Edge::to_graph).collect();
+    let config = OptimiseConfig {
+        solver: Solver::GaussNewton,
+        max_iterations: GRAPH_ITERATIONS,
+        relative_decrease: 1e-12,
+        ..OptimiseConfig::default()
+    };
     for round in 0..2 {
-        for _iter in 0..GRAPH_ITERATIONS {
-            let mut h = nalgebra::DMatrix::<f64>::zeros(dim, dim);
-            let mut g = nalgebra::DVector::<f64>::zeros(dim);
-            for e in &edges {
-                let r = e.residual(&poses[e.i], &poses[e.j]);
-                // Jacobians by central differences, per node (the first is
-                // held).
-                let (pi, pj) = (poses[e.i], poses[e.j]);
-                let nudged = |p: Pose2, c: usize, d: f64| match c {
-                    0 => Pose2::new(p.x + d, p.y, p.theta),
-                    1 => Pose2::new(p.x, p.y + d, p.theta),
-                    _ => Pose2::new(p.x, p.y, p.theta + d),
-                };
-                let mut jac = [Matrix3::zeros(); 2];
-                for c in 0..3 {
-                    let di = |d: f64| e.residual(&nudged(pi, c, d), &pj);
-                    let dj = |d: f64| e.residual(&pi, &nudged(pj, c, d));
-                    jac[0].set_column(c, &((di(GRAPH_STEP) - di(-GRAPH_STEP)) / (2.0 * GRAPH_STEP)));
-                    jac[1].set_column(c, &((dj(GRAPH_STEP) - dj(-GRAPH_STEP)) / (2.0 * GRAPH_STEP)));
-                }
-                for (a, &na) in [e.i, e.j].iter().enumerate() {
-                    if na == 0 {
-                        continue;
-                    }
-                    let mut ga = g.rows_mut(3 * (na - 1), 3);
-                    ga += jac[a].transpose() * e.info * r;
-                    for (b, &nb) in [e.i, e.j].iter().enumerate() {
-                        if nb == 0 {
-                            continue;
-                        }
-                        let mut hab = h.view_mut((3 * (na - 1), 3 * (nb - 1)), (3, 3));
-                        hab += jac[a].transpose() * e.info * jac[b];
-                    }
-                }
-            }
-            let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
-                return;
-            };
-            for (s, p) in poses.iter_mut().enumerate().skip(1) {
-                let d = step.fixed_rows::<3>(3 * (s - 1));
-                *p = Pose2::new(p.x + d[0], p.y + d[1], p.theta + d[2]);
-            }
-            if step.amax() < 1e-9 {
-                break;
-            }
+        if optimise(&mut graph, &config).is_err() {
+            return;
         }
-        let before = edges.len();
+        let before = graph.edges.len();
         if round == 0 {
-            edges.retain(|e| e.chi2(poses) <= EDGE_GATE);
+            let poses = &graph.poses;
+            graph
+                .edges
+                .retain(|e| e.chi2(&poses[e.from], &poses[e.to]) <= EDGE_GATE);
         }
-        if edges.len() == before {
+        if graph.edges.len() == before {
             break;
         }
     }
+    poses.copy_from_slice(&graph.poses);
 }
 
 /// Gauss-Newton iterations, at most.
 const GRAPH_ITERATIONS: usize = 10;
 
-/// Finite-difference step of the Jacobians.
-const GRAPH_STEP: f64 = 1e-6;
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector3;
 
     #[test]
     fn the_adjustment_turns_a_group_of_sweeps_back_and_drops_a_wrong_match() {

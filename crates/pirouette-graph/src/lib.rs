@@ -9,6 +9,9 @@
 //!   reports a [`Summary`].
 //! - [`marginal_covariances`]: the covariance of chosen poses at the
 //!   solution.
+//! - [`GaussNewton`]: single steps on a graph whose pattern is analysed
+//!   once (for benchmarks and callers that drive their own iteration).
+//! - [`synthetic::grid_world`]: grid-world graphs of any size.
 //! - [`init`]: starting poses from the edges (odometry chaining, or
 //!   rotations first by chordal relaxation for graphs that defeat a local
 //!   solver started from odometry).
@@ -39,8 +42,9 @@
 pub mod init;
 mod solve;
 mod sparse;
+pub mod synthetic;
 
-pub use solve::{marginal_covariances, optimise, OptimiseConfig, Solver, Summary};
+pub use solve::{marginal_covariances, optimise, GaussNewton, OptimiseConfig, Solver, Summary};
 
 use pirouette_geom::{wrap_angle, Pose2};
 

@@ -268,6 +268,35 @@ pub fn optimise(graph: &mut PoseGraph, config: &OptimiseConfig) -> Result<Summar
     })
 }
 
+/// A graph's normal equations made ready for repeated steps: the sparsity
+/// pattern and its symbolic Cholesky factorisation, made once for the
+/// graph's edges (what [`optimise`] does before its first step).
+pub struct GaussNewton {
+    normal: Normal,
+}
+
+impl GaussNewton {
+    /// The pattern and symbolic factorisation of `graph`'s edges.
+    pub fn new(graph: &PoseGraph) -> Result<Self, GraphError> {
+        graph.check()?;
+        Ok(Self {
+            normal: Normal::new(graph)?,
+        })
+    }
+
+    /// One Gauss-Newton step on `graph` (whose edges must be those this
+    /// was made for): linearise, factor, solve, move. Returns the robust
+    /// cost after the step.
+    pub fn step(&mut self, graph: &mut PoseGraph) -> Result<f64, GraphError> {
+        let n = self.normal.system.dim();
+        self.normal.linearise(graph, &graph.poses);
+        let mut delta = Mat::from_fn(n, 1, |i, _| -self.normal.gradient[i]);
+        self.normal.system.factor()?.solve(&mut delta);
+        graph.poses = self.normal.step(&graph.poses, &delta);
+        Ok(graph.robust_cost())
+    }
+}
+
 /// The 3 × 3 covariance of each pose in `which` (`(x, y, θ)`, world frame)
 /// at the graph's current poses: blocks of the inverse of the normal
 /// equations' matrix (kernels' weights included) with the held pose fixed
