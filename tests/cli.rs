@@ -13,6 +13,7 @@ fn every_command_has_help() {
         vec!["eval", "--help"],
         vec!["map", "--help"],
         vec!["eval", "map", "--help"],
+        vec!["graph", "optimise", "--help"],
     ] {
         let out = pirouette(&args);
         assert!(out.status.success(), "{args:?}");

@@ -4,6 +4,7 @@ mod util;
 
 mod cli;
 mod datasets;
+mod graph;
 mod map;
 mod profile;
 mod sweep;

@@ -43,10 +43,12 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Build the occupancy grid map of a dataset or laser log.
     Map(map::MapArgs),
-    /// Place index: build it from datasets.
+    /// Place index: build it from datasets (not available in this version
+    /// yet).
     #[command(subcommand)]
     Places(PlacesCommand),
-    /// Localise the sweeps of a dataset against a place index.
+    /// Localise the sweeps of a dataset against a place index (not
+    /// available in this version yet).
     Localise(LocaliseArgs),
     /// Pose graphs in g2o format.
     #[command(subcommand)]
@@ -58,7 +60,8 @@ enum Command {
 
 #[derive(Subcommand, Debug)]
 enum PlacesCommand {
-    /// Build a place index from one or more datasets.
+    /// Build a place index from one or more datasets (not available in
+    /// this version yet).
     Build(PlacesBuildArgs),
 }
 
