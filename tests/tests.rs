@@ -5,6 +5,7 @@ mod util;
 mod cli;
 mod datasets;
 mod graph;
+mod hostile;
 mod map;
 mod profile;
 mod sweep;

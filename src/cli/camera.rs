@@ -22,6 +22,14 @@ pub struct CameraArgs {
 
 /// `pirouette camera`.
 pub fn camera(a: CameraArgs) -> Result<()> {
+    if a.band_rows == 0 {
+        bail!("--band-rows must be at least 1");
+    }
+    if let Some(limit) = a.range_limit {
+        if !(limit.is_finite() && limit > 0.0) {
+            bail!("--range-limit {limit} m must be a positive number");
+        }
+    }
     let ds = super::open_dataset(&a.dataset)?;
     let cam = &ds.manifest.camera;
     let Some(pinhole) = cam.pinhole_model() else {

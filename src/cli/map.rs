@@ -124,13 +124,25 @@ fn open_camera_dataset(path: &Path) -> Result<Dataset> {
     super::open_dataset(path)
 }
 
-/// Profiles every frame and assembles the sweeps, with a progress bar.
 /// A rival peak of a sweep's registration within this many nats of the
 /// best is reported (its weight is `e⁻¹⁰ ≈ 4.5·10⁻⁵` of the best's or more).
 const RIVAL_REPORTED_LN: f64 = 10.0;
 
+/// Profiles every frame and assembles the sweeps, with a progress bar.
 pub fn profile_dataset(ds: &Dataset, options: &MapOptions) -> Result<Profiled> {
     options.check()?;
+    // A map the commands alone make too large is refused before any image
+    // is read.
+    let grid = GridConfig {
+        resolution_m: options.resolution,
+        ..GridConfig::default()
+    };
+    pirouette::mapping::check_extent(
+        &ds.manifest.frames,
+        ds.manifest.max_range * options.far_reach,
+        &grid,
+    )
+    .with_context(|| ds.manifest_path().display().to_string())?;
     let run = options.sweep.run_all(ds)?;
     let config = options.config(&run.config)?;
     let blind_m = run
@@ -154,7 +166,8 @@ pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
         profiled.blind_m,
         &profiled.config,
         || bar.inc(1),
-    )?;
+    )
+    .with_context(|| ds.manifest_path().display().to_string())?;
     bar.finish_and_clear();
     Ok(Mapped { profiled, map })
 }
@@ -204,6 +217,7 @@ pub fn evaluate(ds: &Dataset, profiled: &Profiled, dir: &Path, tolerance_cells: 
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
     let ds = open_camera_dataset(&a.dataset)?;
+    super::check_output_dir(&a.out)?;
     let mapped = map_dataset(&ds, &a.options)?;
     write_map(&ds, &mapped, &a.out)?;
     let [px, py] = mapped.profiled.config.sweep.matching.pivot_m;

@@ -175,3 +175,19 @@ pub(crate) fn check_output_file(path: &std::path::Path) -> Result<()> {
     let _ = std::fs::remove_file(&probe);
     Ok(())
 }
+
+/// Checks, before any work, that `dir` can take the files a command writes:
+/// it is a folder (made if missing) in which a new file can be written.
+pub(crate) fn check_output_dir(dir: &std::path::Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "{}: is a file, not a folder; give a folder to write into",
+            dir.display()
+        );
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+    let probe = dir.join(format!(".pirouette-write-check.{}", std::process::id()));
+    std::fs::write(&probe, b"").with_context(|| format!("{}: cannot write in this folder", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}

@@ -128,6 +128,9 @@ fn json_value(x: f64) -> serde_json::Value {
 pub fn profile(a: ProfileArgs) -> Result<()> {
     let config = a.options.config(a.bin_deg)?;
     let ds = super::open_dataset(&a.dataset)?;
+    if let Some(dir) = &a.plot {
+        super::check_output_dir(dir)?;
+    }
     let extractor = pipeline::extractor(&ds, a.options.model(), config)?;
     let bar = super::progress(ds.manifest.frames.len(), "profile");
     let rops = pipeline::profiles(&ds, &extractor, || bar.inc(1))?;

@@ -102,6 +102,7 @@ pub fn summary(ds: &Dataset) -> Result<()> {
 /// `pirouette render`.
 pub fn render(a: RenderArgs) -> Result<()> {
     let scene = load_scene(&a.scene)?;
+    super::check_output_dir(&a.out)?;
     let ds = render_with_progress(&scene, a.seed, &a.out)?;
     summary(&ds)
 }
@@ -115,6 +116,7 @@ pub const EXAMPLE_SEED: u64 = 2004;
 /// build the map, score everything against truth, draw pictures.
 pub fn example(a: ExampleArgs) -> Result<()> {
     let scene = Scene::builtin(EXAMPLE_SCENE).expect("the example scene is built in");
+    super::check_output_dir(&a.out)?;
     let dataset_dir = a.out.join("dataset");
     let ds = render_with_progress(&scene, EXAMPLE_SEED, &dataset_dir)?;
     summary(&ds)?;

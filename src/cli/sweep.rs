@@ -136,6 +136,9 @@ fn deg(x: f64) -> serde_json::Value {
 pub fn sweep(a: SweepArgs) -> Result<()> {
     a.options.check()?;
     let ds = super::open_dataset(&a.dataset)?;
+    if let Some(dir) = &a.plot {
+        super::check_output_dir(dir)?;
+    }
     let sweeps = a.options.run(&ds)?;
     for s in &sweeps {
         let commanded = pipeline::commanded_turns(&ds, &s.frames);

@@ -394,6 +394,8 @@ pub fn build_map(
     config: &MapConfig,
     progress: impl Fn(),
 ) -> Result<MapRun> {
+    let reach = rops.iter().map(|r| r.max_range_m as f64).fold(0.0, f64::max);
+    check_extent(frames, reach, &config.grid)?;
     if rops.len() != frames.len() || compared.len() != frames.len() {
         bail!(
             "{} and {} profiles for {} frames",
@@ -470,6 +472,12 @@ pub fn build_map(
                 p.frame_pose(k)
             };
             grid.insert_profile(&frame_poses[i], &rops[i], blind_m);
+        }
+        if grid.overflowed() {
+            bail!(
+                "the map grew beyond its budget of {} million cells: registration placed a sweep far from its command",
+                config.grid.max_cells / 1_000_000
+            );
         }
         out.push(SweepPose {
             id: sweep.id,
@@ -626,6 +634,35 @@ fn forward_distance(motion: Option<Motion>) -> f64 {
         Some(Motion::Forward { forward }) => forward,
         _ => 0.0,
     }
+}
+
+/// Refuses, before any work, a dataset whose commanded moves alone span a
+/// grid beyond [`GridConfig::max_cells`] (each sweep may still move by up
+/// to the registration window, which the final grid's own check catches).
+/// `reach_m` is how far a profile reaches (the soft range limit).
+pub fn check_extent(frames: &[FrameSpec], reach_m: f64, grid: &GridConfig) -> Result<()> {
+    let reach = reach_m;
+    let poses = dead_reckoning(frames);
+    let (lo, hi) = poses
+        .iter()
+        .fold(((f64::MAX, f64::MAX), (f64::MIN, f64::MIN)), |(lo, hi), p| {
+            ((lo.0.min(p.x), lo.1.min(p.y)), (hi.0.max(p.x), hi.1.max(p.y)))
+        });
+    let s = grid.resolution_m;
+    let (w, h) = ((hi.0 - lo.0 + 2.0 * reach) / s, (hi.1 - lo.1 + 2.0 * reach) / s);
+    if w.is_nan() || h.is_nan() || w * h > grid.max_cells as f64 {
+        bail!(
+            "the commanded moves span {:.1} × {:.1} m: a map of {:.0} × {:.0} cells of {} cm is beyond the budget of {} million cells \
+             (is a forward move given in millimetres?)",
+            hi.0 - lo.0,
+            hi.1 - lo.1,
+            w,
+            h,
+            s * 100.0,
+            grid.max_cells / 1_000_000
+        );
+    }
+    Ok(())
 }
 
 /// A grid of the profiles seen from given poses (the map a perfect

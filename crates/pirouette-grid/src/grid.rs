@@ -36,6 +36,10 @@ pub struct GridConfig {
     pub miss_probability: f64,
     /// Log-odds are kept within ± this (so the map can still change its mind).
     pub clamp_log_odds: f32,
+    /// The most cells the grid may hold (nine bytes each): a profile that
+    /// would grow it beyond is not inserted, and
+    /// [`OccupancyGrid::overflowed`] says so.
+    pub max_cells: usize,
 }
 
 impl Default for GridConfig {
@@ -43,7 +47,7 @@ impl Default for GridConfig {
     /// 0.5; one sighting of an obstacle 0.7, one look through a cell 0.4
     /// (a camera's misses are cheaper than its hits: lint and shading make
     /// false obstacles, not false floor); log-odds clamped at ±4 (0.018 to
-    /// 0.982).
+    /// 0.982); at most 50 million cells (450 MB; 70 × 70 m at 1 cm).
     fn default() -> Self {
         Self {
             resolution_m: 0.01,
@@ -51,6 +55,7 @@ impl Default for GridConfig {
             hit_probability: 0.7,
             miss_probability: 0.4,
             clamp_log_odds: 4.0,
+            max_cells: 50_000_000,
         }
     }
 }
@@ -98,8 +103,8 @@ enum Seen {
 /// Cell `(i, j)` covers `[i·s, (i+1)·s) × [j·s, (j+1)·s)` of the map frame.
 ///
 /// # Memory
-/// Nine bytes per cell (log-odds, a per-profile stamp and mark): 0.9 MB for
-/// a 10 × 10 m map at 1 cm.
+/// Nine bytes per cell (log-odds, a per-profile stamp and mark): 9 MB for a
+/// 10 × 10 m map at 1 cm; never more than [`GridConfig::max_cells`] cells.
 #[derive(Debug, Clone)]
 pub struct OccupancyGrid {
     config: GridConfig,
@@ -116,6 +121,9 @@ pub struct OccupancyGrid {
     touched: Vec<usize>,
     l_hit: f32,
     l_miss: f32,
+    /// Whether a profile was left out because the grid would have grown
+    /// beyond its budget.
+    overflow: bool,
 }
 
 impl OccupancyGrid {
@@ -135,6 +143,7 @@ impl OccupancyGrid {
             mark: Vec::new(),
             profiles: 0,
             touched: Vec::new(),
+            overflow: false,
         })
     }
 
@@ -261,8 +270,15 @@ impl OccupancyGrid {
         out
     }
 
-    /// Grows the storage (with a margin) so that cells `lo..=hi` exist.
-    fn ensure(&mut self, lo: (i64, i64), hi: (i64, i64)) {
+    /// Whether some profile was left out because the grid would have grown
+    /// beyond [`GridConfig::max_cells`]: the grid is then incomplete.
+    pub fn overflowed(&self) -> bool {
+        self.overflow
+    }
+
+    /// Grows the storage (with a margin) so that cells `lo..=hi` exist;
+    /// false, growing nothing, where that would pass the cell budget.
+    fn ensure(&mut self, lo: (i64, i64), hi: (i64, i64)) -> bool {
         let cur_hi = (
             self.min_cell.0 + self.width as i64 - 1,
             self.min_cell.1 + self.height as i64 - 1,
@@ -273,7 +289,7 @@ impl OccupancyGrid {
             && hi.0 <= cur_hi.0
             && hi.1 <= cur_hi.1
         {
-            return;
+            return true;
         }
         // Grow by at least half the current size each way, so that a robot
         // exploring steadily re-allocates only logarithmically often.
@@ -293,10 +309,32 @@ impl OccupancyGrid {
                 ),
             )
         };
+        // Counted in i128: cell indices of absurd poses overflow i64 sums.
         let (w, h) = (
-            (new_hi.0 - new_lo.0 + 1) as usize,
-            (new_hi.1 - new_lo.1 + 1) as usize,
+            new_hi.0 as i128 - new_lo.0 as i128 + 1,
+            new_hi.1 as i128 - new_lo.1 as i128 + 1,
         );
+        // The margin is a convenience: without it, what is stored and
+        // asked for must fit the budget.
+        let budget = self.config.max_cells as i128;
+        let (new_lo, w, h) = if w * h <= budget {
+            (new_lo, w, h)
+        } else {
+            let (lo, hi) = if self.width == 0 {
+                (lo, hi)
+            } else {
+                (
+                    (lo.0.min(self.min_cell.0), lo.1.min(self.min_cell.1)),
+                    (hi.0.max(cur_hi.0), hi.1.max(cur_hi.1)),
+                )
+            };
+            let (w, h) = (hi.0 as i128 - lo.0 as i128 + 1, hi.1 as i128 - lo.1 as i128 + 1);
+            if w * h > budget {
+                return false;
+            }
+            (lo, w, h)
+        };
+        let (w, h) = (w as usize, h as usize);
         let mut log_odds = vec![0f32; w * h];
         for y in 0..self.height {
             let src = y * self.width;
@@ -310,6 +348,7 @@ impl OccupancyGrid {
         self.min_cell = new_lo;
         self.width = w;
         self.height = h;
+        true
     }
 
     /// Inserts one profile seen from `world_from_robot` (the robot centre)
@@ -322,10 +361,19 @@ impl OccupancyGrid {
         let s = self.config.resolution_m;
         let c = world_from_robot.translation();
         let reach = max_range + 2.0 * s;
-        self.ensure(
-            self.cell_of(Point2::new(c.x - reach, c.y - reach)),
-            self.cell_of(Point2::new(c.x + reach, c.y + reach)),
-        );
+        // Far beyond any map (and beyond what cell indices hold), or
+        // beyond the budget: left out, and said.
+        let far = (c.x.abs().max(c.y.abs()) + reach) / s;
+        if !(c.x.is_finite() && c.y.is_finite())
+            || far >= 1e15
+            || !self.ensure(
+                self.cell_of(Point2::new(c.x - reach, c.y - reach)),
+                self.cell_of(Point2::new(c.x + reach, c.y + reach)),
+            )
+        {
+            self.overflow = true;
+            return 0;
+        }
         self.profiles = self.profiles.wrapping_add(1).max(1);
         let id = self.profiles;
         // The cells this profile touches, in a buffer kept between calls.
@@ -387,6 +435,37 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A profile that would grow the grid past its budget is left out, and
+    /// the grid says so; one at an absurd or non-finite pose likewise.
+    #[test]
+    fn profiles_beyond_the_cell_budget_are_left_out_and_reported() {
+        use pirouette_profile::Rop;
+        let mut rop = Rop::covering(-0.5, 0.5, 1f64.to_radians(), 1.0).unwrap();
+        rop.range_m.iter_mut().for_each(|r| *r = 0.5);
+        let config = GridConfig {
+            max_cells: 100_000,
+            ..GridConfig::default()
+        };
+        let mut g = OccupancyGrid::new(config).unwrap();
+        assert!(g.insert_profile(&Pose2::IDENTITY, &rop, 0.1) > 0);
+        assert!(!g.overflowed());
+        // 10 m away: 1000 × 1000 cells would be needed.
+        assert_eq!(g.insert_profile(&Pose2::new(10.0, 0.0, 0.0), &rop, 0.1), 0);
+        assert!(g.overflowed());
+        assert!(g.width * g.height <= 100_000);
+        for far in [Pose2::new(1e300, 0.0, 0.0), Pose2::new(f64::NAN, 0.0, 0.0)] {
+            let mut g = OccupancyGrid::new(GridConfig::default()).unwrap();
+            assert_eq!(g.insert_profile(&far, &rop, 0.1), 0);
+            assert!(g.overflowed() && g.log_odds.is_empty());
+        }
+        // A map around the origin, then a profile 10⁷ km away.
+        let mut g = OccupancyGrid::new(GridConfig::default()).unwrap();
+        g.insert_profile(&Pose2::IDENTITY, &rop, 0.1);
+        let cells = g.log_odds.len();
+        assert_eq!(g.insert_profile(&Pose2::new(-1e10, 1e10, 0.0), &rop, 0.1), 0);
+        assert!(g.overflowed() && g.log_odds.len() == cells);
+    }
 
     #[test]
     fn log_odds_reaching_a_probability_split_cells_as_the_probability_does() {

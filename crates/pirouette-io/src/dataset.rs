@@ -211,11 +211,48 @@ impl CameraSpec {
     }
 
     fn problem(&self) -> Option<String> {
+        use limits::*;
         if self.width < 2 || self.height < 2 {
             return Some(format!("camera size {}x{} is too small", self.width, self.height));
         }
+        if self.width > MAX_IMAGE_SIDE
+            || self.height > MAX_IMAGE_SIDE
+            || u64::from(self.width) * u64::from(self.height) > MAX_IMAGE_PIXELS
+        {
+            return Some(format!(
+                "camera size {}x{} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels this reader takes",
+                self.width,
+                self.height,
+                MAX_IMAGE_PIXELS / 1_000_000
+            ));
+        }
         if !self.ipm.is_valid() {
             return Some("camera.ipm: b, h, d, w must be finite and positive".into());
+        }
+        let ipm = &self.ipm;
+        if [ipm.b, ipm.h, ipm.d, ipm.w].iter().any(|&v| v > MAX_LENGTH_M) {
+            return Some(format!(
+                "camera.ipm: b {}, h {}, d {}, w {} m: each must be at most {MAX_LENGTH_M} m (metres, not millimetres?)",
+                ipm.b, ipm.h, ipm.d, ipm.w
+            ));
+        }
+        // The view the four measurements imply: the bottom and centre rows'
+        // depression angles, and the half-width at the centre row.
+        let below_bottom = ipm.h.atan2(ipm.b);
+        let below_centre = ipm.h.atan2(ipm.b + ipm.d);
+        let half_vertical_deg = (below_bottom - below_centre).to_degrees();
+        let half_horizontal_deg = ipm.w.atan2(ipm.h.hypot(ipm.b + ipm.d)).to_degrees();
+        for (what, deg) in [
+            ("vertical", half_vertical_deg),
+            ("horizontal", half_horizontal_deg),
+        ] {
+            if !(MIN_HALF_FOV_DEG..=MAX_HALF_FOV_DEG).contains(&deg) {
+                return Some(format!(
+                    "camera.ipm: b {}, h {}, d {}, w {} describe a camera whose {what} half field of view is {deg:.2}°, \
+                     outside the {MIN_HALF_FOV_DEG}-{MAX_HALF_FOV_DEG}° of a real lens",
+                    ipm.b, ipm.h, ipm.d, ipm.w
+                ));
+            }
         }
         if let Some(p) = &self.pinhole {
             let finite = [p.fx, p.fy, p.cx, p.cy, p.height, p.tilt_deg]
@@ -233,13 +270,84 @@ impl CameraSpec {
                     p.tilt_deg
                 ));
             }
+            let side = f64::from(self.width.max(self.height));
+            if p.fx > MAX_FOCAL_SIDES * side || p.fy > MAX_FOCAL_SIDES * side {
+                return Some(format!(
+                    "camera.pinhole: fx {} and fy {} px must be at most {MAX_FOCAL_SIDES} image sides ({} px): no real lens sees less than half a degree",
+                    shown(p.fx),
+                    shown(p.fy),
+                    MAX_FOCAL_SIDES * side
+                ));
+            }
+            if !(0.0..=f64::from(self.width)).contains(&p.cx)
+                || !(0.0..=f64::from(self.height)).contains(&p.cy)
+            {
+                return Some(format!(
+                    "camera.pinhole: the principal point ({}, {}) lies outside the {}x{} image",
+                    p.cx, p.cy, self.width, self.height
+                ));
+            }
+            if p.height > MAX_LENGTH_M {
+                return Some(format!(
+                    "camera.pinhole.height {} m is above {MAX_LENGTH_M} m",
+                    p.height
+                ));
+            }
         }
         let m = self.mount();
         if !(m.forward.is_finite() && m.left.is_finite()) {
             return Some("camera.mount: forward and left must be finite".into());
         }
+        if m.forward.abs() > MAX_MOUNT_M || m.left.abs() > MAX_MOUNT_M {
+            return Some(format!(
+                "camera.mount: forward {} and left {} m must be within {MAX_MOUNT_M} m of the turning centre",
+                m.forward, m.left
+            ));
+        }
         None
     }
+}
+
+/// A number for a message: as written where it is of everyday size, in
+/// exponent form where it is huge or tiny.
+fn shown(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// What a manifest may describe: a small robot's camera and its moves
+/// between two frames. A manifest beyond these is refused with an error
+/// naming the field or frame, before any work (and before any memory is
+/// spent on it).
+pub mod limits {
+    /// The widest or tallest image, pixels.
+    pub const MAX_IMAGE_SIDE: u32 = 8192;
+    /// The most pixels in an image.
+    pub const MAX_IMAGE_PIXELS: u64 = 40_000_000;
+    /// The longest camera measurement (IPM `b`, `h`, `d`, `w`, pinhole
+    /// height), metres.
+    pub const MAX_LENGTH_M: f64 = 10.0;
+    /// The farthest a camera may sit from the turning centre, metres.
+    pub const MAX_MOUNT_M: f64 = 1.0;
+    /// The narrowest and widest half field of view the IPM may imply,
+    /// degrees.
+    pub const MIN_HALF_FOV_DEG: f64 = 1.0;
+    /// See [`MIN_HALF_FOV_DEG`].
+    pub const MAX_HALF_FOV_DEG: f64 = 85.0;
+    /// The longest pinhole focal length, in image sides (a field of view
+    /// of about half a degree).
+    pub const MAX_FOCAL_SIDES: f64 = 100.0;
+    /// The longest soft range limit, metres.
+    pub const MAX_RANGE_M: f64 = 50.0;
+    /// The longest straight move between two frames, metres.
+    pub const MAX_FORWARD_M: f64 = 5.0;
+    /// The largest turn between two frames, degrees (one full turn).
+    pub const MAX_TURN_DEG: f64 = 360.0;
+    /// The most frames in a dataset.
+    pub const MAX_FRAMES: usize = 1_000_000;
 }
 
 /// A dataset opened from disk: its folder and checked manifest.
@@ -344,8 +452,28 @@ impl Dataset {
                 format!("max_range {} must be finite and positive", m.max_range),
             ));
         }
+        if m.max_range > limits::MAX_RANGE_M {
+            return Err(IoError::invalid(
+                path,
+                format!(
+                    "max_range {} m is beyond the {} m this engine maps",
+                    m.max_range,
+                    limits::MAX_RANGE_M
+                ),
+            ));
+        }
         if m.frames.is_empty() {
             return Err(IoError::invalid(path, "no frames"));
+        }
+        if m.frames.len() > limits::MAX_FRAMES {
+            return Err(IoError::invalid(
+                path,
+                format!(
+                    "{} frames: more than the {} this reader takes",
+                    m.frames.len(),
+                    limits::MAX_FRAMES
+                ),
+            ));
         }
         for (i, f) in m.frames.iter().enumerate() {
             let bad = |what: String| IoError::invalid(path, format!("frames[{i}] ({}): {what}", f.image));
@@ -361,7 +489,40 @@ impl Dataset {
                 {
                     return Err(bad("motion is not finite".into()))
                 }
+                Some(Motion::Forward { forward }) if forward.abs() > limits::MAX_FORWARD_M => {
+                    return Err(bad(format!(
+                        "a straight move of {} m between two frames is beyond the {} m limit (metres, not millimetres?)",
+                        shown(forward),
+                        limits::MAX_FORWARD_M
+                    )))
+                }
+                Some(Motion::Turn { turn_deg }) if turn_deg.abs() > limits::MAX_TURN_DEG => {
+                    return Err(bad(format!(
+                        "a turn of {}° between two frames is more than a full turn",
+                        shown(turn_deg)
+                    )))
+                }
                 _ => {}
+            }
+            // Sweep numbers follow the motions: a turn stays in the sweep,
+            // a straight move starts a later one.
+            if i > 0 {
+                let before = m.frames[i - 1].sweep;
+                match f.motion {
+                    Some(Motion::Turn { .. }) if f.sweep != before => {
+                        return Err(bad(format!(
+                            "a turn keeps the robot in sweep {before}, but the frame says sweep {}",
+                            f.sweep
+                        )))
+                    }
+                    Some(Motion::Forward { .. }) if f.sweep <= before => {
+                        return Err(bad(format!(
+                            "a straight move starts a new sweep after sweep {before}, but the frame says sweep {}",
+                            f.sweep
+                        )))
+                    }
+                    _ => {}
+                }
             }
             if let Some(t) = f.truth {
                 if !(t.x.is_finite() && t.y.is_finite() && t.theta_deg.is_finite()) {

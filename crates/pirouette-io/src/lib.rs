@@ -31,7 +31,7 @@ mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
 pub use dataset::{
-    CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
+    limits, CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
     FORMAT_VERSION,
 };
 pub use error::IoError;

@@ -254,6 +254,26 @@ impl Scene {
         if !(c.tilt_deg > 0.0 && c.tilt_deg < 90.0) {
             return bad("camera: tilt_deg must be in (0, 90)");
         }
+        {
+            use pirouette_io::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_LENGTH_M, MAX_RANGE_M};
+            if c.width > MAX_IMAGE_SIDE
+                || c.height > MAX_IMAGE_SIDE
+                || u64::from(c.width) * u64::from(c.height) > MAX_IMAGE_PIXELS
+            {
+                return bad(&format!(
+                    "camera: {}x{} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels a dataset may hold",
+                    c.width,
+                    c.height,
+                    MAX_IMAGE_PIXELS / 1_000_000
+                ));
+            }
+            if c.height_m > MAX_LENGTH_M || self.max_range > MAX_RANGE_M {
+                return bad(&format!(
+                    "camera height {} m and max_range {} m must be at most {MAX_LENGTH_M} m and {MAX_RANGE_M} m",
+                    c.height_m, self.max_range
+                ));
+            }
+        }
         if !(self.max_range.is_finite() && self.max_range > 0.0) {
             return bad("max_range must be finite and positive");
         }

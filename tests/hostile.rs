@@ -1,0 +1,199 @@
+//! Hostile input: manifests that are valid JSON but describe no real robot,
+//! and output paths that cannot be written. Each is refused with a one-line
+//! error naming the file and the problem, before any work.
+
+use crate::util::{pirouette, rendered};
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+
+/// A copy of a rendered dataset's manifest, changed by `edit`, beside the
+/// original's frames (linked, not copied).
+fn dataset_with(dir: &Path, name: &str, edit: impl FnOnce(&mut Value)) -> PathBuf {
+    let source = rendered("field-multi", 3);
+    let root = dir.join(name);
+    std::fs::create_dir_all(&root).unwrap();
+    std::os::unix::fs::symlink(source.join("frames"), root.join("frames")).unwrap();
+    let mut manifest: Value =
+        serde_json::from_str(&std::fs::read_to_string(source.join("dataset.json")).unwrap()).unwrap();
+    edit(&mut manifest);
+    std::fs::write(root.join("dataset.json"), manifest.to_string()).unwrap();
+    root
+}
+
+/// The first frame reached by a straight move, and one reached by a turn.
+fn frames_by_motion(m: &Value) -> (usize, usize) {
+    let frames = m["frames"].as_array().unwrap();
+    let forward = frames
+        .iter()
+        .position(|f| f["motion"].get("forward").is_some())
+        .unwrap();
+    let turn = frames
+        .iter()
+        .position(|f| f["motion"].get("turn_deg").is_some())
+        .unwrap();
+    (forward, turn)
+}
+
+fn refused(args: &[&str], names: &str, says: &str) {
+    let out = pirouette(args);
+    assert!(!out.status.success(), "{args:?} was accepted");
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{args:?}: exit {:?}, a panic or an abort",
+        out.status
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+    assert!(
+        err.contains(names) && err.contains(says),
+        "{args:?}: `{err}` should name {names} and say {says}"
+    );
+}
+
+#[test]
+fn absurd_manifests_are_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    type Edit = Box<dyn FnOnce(&mut Value)>;
+    let cases: Vec<(&str, Edit, &str)> = vec![
+        (
+            "forward-1e10",
+            Box::new(|m| {
+                let (f, _) = frames_by_motion(m);
+                m["frames"][f]["motion"] = json!({"forward": 1e10});
+            }),
+            "beyond the 5 m limit",
+        ),
+        (
+            "forward-mm",
+            Box::new(|m| {
+                let (f, _) = frames_by_motion(m);
+                m["frames"][f]["motion"] = json!({"forward": 300.0});
+            }),
+            "millimetres",
+        ),
+        (
+            "turn-1e308",
+            Box::new(|m| {
+                let (_, t) = frames_by_motion(m);
+                m["frames"][t]["motion"] = json!({"turn_deg": 1e308});
+            }),
+            "more than a full turn",
+        ),
+        (
+            "huge-camera",
+            Box::new(|m| {
+                m["camera"]["width"] = json!(100_000);
+                m["camera"]["height"] = json!(100_000);
+            }),
+            "8192 pixels",
+        ),
+        (
+            "ipm-flat",
+            Box::new(|m| {
+                m["camera"]["ipm"]["d"] = json!(0.0001);
+            }),
+            "field of view",
+        ),
+        (
+            "ipm-mm",
+            Box::new(|m| {
+                m["camera"]["ipm"]["h"] = json!(100.0);
+            }),
+            "millimetres",
+        ),
+        (
+            "fx-1e308",
+            Box::new(|m| {
+                m["camera"]["pinhole"]["fx"] = json!(1e308);
+            }),
+            "1e308",
+        ),
+        (
+            "centre-outside",
+            Box::new(|m| {
+                m["camera"]["pinhole"]["cx"] = json!(-5.0);
+            }),
+            "principal point",
+        ),
+        (
+            "mount-far",
+            Box::new(|m| {
+                m["camera"]["mount"] = json!({"forward": 3.0, "left": 0.0});
+            }),
+            "turning centre",
+        ),
+        (
+            "range-far",
+            Box::new(|m| {
+                m["max_range"] = json!(1e6);
+            }),
+            "max_range",
+        ),
+        (
+            "sweep-jump",
+            Box::new(|m| {
+                let (_, t) = frames_by_motion(m);
+                m["frames"][t]["sweep"] = json!(7);
+            }),
+            "keeps the robot in sweep",
+        ),
+        (
+            "sweep-stuck",
+            Box::new(|m| {
+                let (f, _) = frames_by_motion(m);
+                let before = m["frames"][f - 1]["sweep"].clone();
+                m["frames"][f]["sweep"] = before;
+            }),
+            "starts a new sweep",
+        ),
+    ];
+    let mut checked = 0;
+    for (name, edit, says) in cases {
+        let root = dataset_with(dir.path(), name, edit);
+        let manifest = root.join("dataset.json");
+        for command in ["profile", "sweep", "map"] {
+            let out = dir.path().join(format!("out-{name}"));
+            let mut args = vec![command, root.to_str().unwrap()];
+            if command == "map" {
+                args.extend(["--out", out.to_str().unwrap()]);
+            }
+            refused(&args, manifest.to_str().unwrap(), says);
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 36);
+}
+
+#[test]
+fn unusable_output_paths_are_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = rendered("field-multi", 3);
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    refused(
+        &["map", ds.to_str().unwrap(), "--out", file.to_str().unwrap()],
+        "a-file",
+        "is a file, not a folder",
+    );
+    refused(
+        &["map", ds.to_str().unwrap(), "--out", "/proc/no-such/map"],
+        "/proc/no-such",
+        "cannot create",
+    );
+    refused(
+        &["profile", ds.to_str().unwrap(), "--plot", file.to_str().unwrap()],
+        "a-file",
+        "not a folder",
+    );
+    refused(
+        &["render", "field-multi", "--out", file.to_str().unwrap()],
+        "a-file",
+        "not a folder",
+    );
+    refused(
+        &["camera", ds.to_str().unwrap(), "--band-rows", "0"],
+        "--band-rows",
+        "at least 1",
+    );
+}
