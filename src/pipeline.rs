@@ -1,5 +1,13 @@
-//! Whole-dataset runs of the engine.
+//! The engine's run of a dataset, as library functions.
+//!
+//! [`map_dataset`] is the whole data path: frames in, profiles, verified
+//! turns and sweeps ([`sweep_dataset`]), registration, the grid. The
+//! command line and the tests call these; [`PipelineConfig`] holds every
+//! setting, each default in one place. The stages below them
+//! ([`sweep_profiles`], [`sweeps`], [`crate::mapping::build_map`]) are
+//! public for benchmarks and for callers that need one stage alone.
 
+use crate::mapping::{build_map, check_extent, MapConfig, MapRun};
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
 use pirouette_io::{Dataset, Motion};
@@ -7,6 +15,167 @@ use pirouette_profile::sweep::{assemble, join, pivot_from_turns, Sweep, SweepCon
 use pirouette_profile::Rop;
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
+
+/// The bin width of the profiles that sweeps and maps are made of,
+/// degrees: one image column spans about 0.2°, and bins that fine let
+/// matching resolve a fraction of a degree.
+pub const SWEEP_BIN_DEG: f64 = 0.25;
+
+/// Every setting of a run.
+#[derive(Debug, Clone)]
+pub struct PipelineConfig {
+    /// The camera model: `None` for the most accurate the dataset allows.
+    pub model: Option<ModelKind>,
+    /// Profiles from images; its bin width is the sweeps' and the map's.
+    pub vision: VisionConfig,
+    /// Turn verification and sweep assembly.
+    pub sweep: SweepConfig,
+    /// Registration and the grid. Its sweep settings are replaced by those
+    /// the sweeps were assembled with (the pivot they measured).
+    pub map: MapConfig,
+}
+
+impl Default for PipelineConfig {
+    /// The most accurate camera model; vision's defaults with
+    /// [`SWEEP_BIN_DEG`] bins; sweeps' and maps' defaults.
+    fn default() -> Self {
+        Self {
+            model: None,
+            vision: VisionConfig {
+                bin_width_rad: SWEEP_BIN_DEG.to_radians(),
+                ..VisionConfig::default()
+            },
+            sweep: SweepConfig::default(),
+            map: MapConfig::default(),
+        }
+    }
+}
+
+/// What a run reports as it goes: once per frame profiled (from several
+/// threads), once per step of the map ([`crate::mapping::progress_steps`]
+/// of them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// A frame's profiles are made.
+    Profiled,
+    /// A step of registration is done.
+    Placed,
+}
+
+/// A dataset's profiles and sweeps ([`sweep_dataset`]).
+pub struct Swept {
+    /// The extractor of the map's profiles (camera tables, settings).
+    pub extractor: RopExtractor,
+    /// One profile per frame, as the settings give it: for the grid.
+    pub rops: Vec<Rop>,
+    /// One profile per frame for comparing views (see
+    /// [`SweepProfiles::compared`]).
+    pub compared: Vec<Rop>,
+    /// The sweeps, their turns verified.
+    pub sweeps: Vec<DatasetSweep>,
+    /// The sweep settings they were assembled with (the pivot measured).
+    pub sweep_config: SweepConfig,
+    /// The camera's blind distance, metres: the floor nearer is not seen.
+    pub blind_m: f64,
+}
+
+impl Swept {
+    /// The map settings of `config` with the sweeps' own settings.
+    pub fn map_config(&self, config: &PipelineConfig) -> MapConfig {
+        MapConfig {
+            sweep: self.sweep_config.clone(),
+            ..config.map.clone()
+        }
+    }
+}
+
+/// A mapped dataset ([`map_dataset`]).
+pub struct Mapped {
+    /// What the map was made of.
+    pub swept: Swept,
+    /// The map settings used.
+    pub config: MapConfig,
+    /// The map, poses and registrations.
+    pub map: MapRun,
+}
+
+/// Frames in, profiles, verified turns and 360° sweeps.
+pub fn sweep_dataset(
+    ds: &Dataset,
+    config: &PipelineConfig,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<Swept> {
+    // Every frame's profiles: for the grid, for comparing views, for turns.
+    let SweepProfiles {
+        extractor,
+        rops,
+        compared,
+        matched,
+    } = sweep_profiles(ds, config.model, config.vision.clone(), || {
+        progress(Stage::Profiled)
+    })?;
+    // Turns verified and sweeps assembled, about the pivot the turns measure.
+    let (sweeps, sweep_config) = sweeps(ds, &extractor, &rops, &matched, &config.sweep);
+    // The floor nearer than the bottom row is not seen.
+    let blind_m = extractor
+        .table()
+        .blind_range()
+        .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
+    Ok(Swept {
+        extractor,
+        rops,
+        compared,
+        sweeps,
+        sweep_config,
+        blind_m,
+    })
+}
+
+/// The whole run: frames in, profiles, sweeps, registration, the grid.
+pub fn map_dataset(
+    ds: &Dataset,
+    config: &PipelineConfig,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<Mapped> {
+    let name = || ds.manifest_path().display().to_string();
+    // A route whose commands alone make too large a map, before any image.
+    check_extent(
+        &ds.manifest.frames,
+        ds.manifest.max_range * config.map.far_reach,
+        &config.map.grid,
+    )
+    .with_context(name)?;
+    // Profiles and sweeps.
+    let swept = sweep_dataset(ds, config, progress)?;
+    // Sweeps registered against each other, their frames fused in the grid.
+    let map_config = swept.map_config(config);
+    let map = map_swept(ds, &swept, &map_config, progress)?;
+    Ok(Mapped {
+        swept,
+        config: map_config,
+        map,
+    })
+}
+
+/// Registration and the grid of a dataset's sweeps ([`sweep_dataset`]),
+/// with map settings `config` (see [`Swept::map_config`]).
+pub fn map_swept(
+    ds: &Dataset,
+    swept: &Swept,
+    config: &MapConfig,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<MapRun> {
+    build_map(
+        &ds.manifest.frames,
+        &swept.rops,
+        &swept.compared,
+        &swept.sweeps,
+        swept.blind_m,
+        config,
+        || progress(Stage::Placed),
+    )
+    .with_context(|| ds.manifest_path().display().to_string())
+}
 
 /// The extractor for a dataset's camera (`model`, or the most accurate
 /// one) and soft range limit.

@@ -5,10 +5,8 @@ use crate::util::{pirouette, rendered, shared};
 use pirouette::eval::map::{occupied_centres, truth_in_map_frame};
 use pirouette::grid::RosMap;
 use pirouette::io::{map_names, read_poses, read_ros_map, Dataset};
-use pirouette::mapping::{build_map, map_with_poses, MapConfig};
-use pirouette::pipeline;
-use pirouette::profile::sweep::SweepConfig;
-use pirouette::vision::VisionConfig;
+use pirouette::mapping::map_with_poses;
+use pirouette::pipeline::{self, PipelineConfig};
 use std::path::Path;
 
 /// Maps `dataset` into `out` and evaluates it, returning the report.
@@ -140,21 +138,14 @@ fn a_rendered_room_maps_within_the_office_targets() {
 #[test]
 fn faint_steps_add_walls_to_the_grid_and_leave_registration_alone() {
     let ds = Dataset::open(&rendered("room-multi", 17)).unwrap();
-    let vision = VisionConfig {
-        bin_width_rad: 0.25f64.to_radians(),
-        ..VisionConfig::default()
-    };
-    let p = pipeline::sweep_profiles(&ds, None, vision, || {}).unwrap();
-    let (sweeps, sweep) = pipeline::sweeps(&ds, &p.extractor, &p.rops, &p.matched, &SweepConfig::default());
-    let blind_m = p.extractor.table().blind_range().unwrap();
-    let config = MapConfig {
-        sweep,
-        ..MapConfig::default()
-    };
-    let frames = &ds.manifest.frames;
-    let with = build_map(frames, &p.rops, &p.compared, &sweeps, blind_m, &config, || {}).unwrap();
-    let without = build_map(frames, &p.compared, &p.compared, &sweeps, blind_m, &config, || {}).unwrap();
+    let mut swept = pipeline::sweep_dataset(&ds, &PipelineConfig::default(), &|_| {}).unwrap();
+    let config = swept.map_config(&PipelineConfig::default());
+    let with = pipeline::map_swept(&ds, &swept, &config, &|_| {}).unwrap();
+    // The same run with the compared profiles in the grid too.
+    let rops = std::mem::replace(&mut swept.rops, swept.compared.clone());
+    let without = pipeline::map_swept(&ds, &swept, &config, &|_| {}).unwrap();
     assert_eq!(with.frame_poses, without.frame_poses);
+    let (blind_m, compared) = (swept.blind_m, &swept.compared);
     let world = ds.world().unwrap().expect("a rendered scene");
     let truth = truth_in_map_frame(&ds).unwrap();
     let first = ds.truth_poses().expect("true poses")[0];
@@ -171,7 +162,7 @@ fn faint_steps_add_walls_to_the_grid_and_leave_registration_alone() {
             .count();
         (on, cells.len() - on)
     };
-    let ((on_with, off_with), (on_without, off_without)) = (on_walls(&p.rops), on_walls(&p.compared));
+    let ((on_with, off_with), (on_without, off_without)) = (on_walls(&rops), on_walls(compared));
     eprintln!("on walls {on_with} and {on_without}, elsewhere {off_with} and {off_without}");
     assert!(
         on_with > on_without,

@@ -1,14 +1,16 @@
 //! `pirouette map` and `pirouette eval map`.
 
-use super::sweep::{SweepOptions, SweepRun};
+use super::sweep::SweepOptions;
 use anyhow::{bail, Context, Result};
 use pirouette::eval::map::{
     evaluate_map_dir, truth_in_map_frame, MapInputs, MapQuality, MapReport, TrajectoryScores,
 };
 use pirouette::geom::Pose2;
 use pirouette::grid::{GridConfig, RosMap};
+use pirouette::io::Motion;
 use pirouette::io::{map_names, write_map_dir, Dataset, PoseRecord};
-use pirouette::mapping::{build_map, MapConfig, MapRun};
+use pirouette::mapping::{progress_steps, MapConfig};
+use pirouette::pipeline::{self, Mapped, PipelineConfig, Stage, Swept};
 use std::path::{Path, PathBuf};
 
 /// Settings of mapping.
@@ -51,16 +53,19 @@ impl MapOptions {
         Ok(())
     }
 
-    fn config(&self, sweep: &pirouette::profile::sweep::SweepConfig) -> Result<MapConfig> {
+    /// The run's settings.
+    pub fn pipeline(&self) -> Result<PipelineConfig> {
         self.check()?;
-        Ok(MapConfig {
-            grid: GridConfig {
-                resolution_m: self.resolution,
-                ..GridConfig::default()
+        Ok(PipelineConfig {
+            map: MapConfig {
+                grid: GridConfig {
+                    resolution_m: self.resolution,
+                    ..GridConfig::default()
+                },
+                far_reach: self.far_reach,
+                ..MapConfig::default()
             },
-            sweep: sweep.clone(),
-            far_reach: self.far_reach,
-            ..MapConfig::default()
+            ..self.sweep.pipeline()?
         })
     }
 }
@@ -96,24 +101,6 @@ pub struct EvalMapArgs {
     json: bool,
 }
 
-/// Profiles and sweeps of a dataset, with what mapping needs of its camera.
-pub struct Profiled {
-    /// The profiles and sweeps.
-    pub run: SweepRun,
-    /// The camera's blind distance, metres.
-    pub blind_m: f64,
-    /// The mapping settings.
-    pub config: MapConfig,
-}
-
-/// A mapped dataset.
-pub struct Mapped {
-    /// What the map was made of.
-    pub profiled: Profiled,
-    /// The map.
-    pub map: MapRun,
-}
-
 fn open_camera_dataset(path: &Path) -> Result<Dataset> {
     if path.is_file() && path.file_name().is_some_and(|n| n != "dataset.json") {
         bail!(
@@ -128,48 +115,42 @@ fn open_camera_dataset(path: &Path) -> Result<Dataset> {
 /// best is reported (its weight is `e⁻¹⁰ ≈ 4.5·10⁻⁵` of the best's or more).
 const RIVAL_REPORTED_LN: f64 = 10.0;
 
-/// Profiles every frame and assembles the sweeps, with a progress bar.
-pub fn profile_dataset(ds: &Dataset, options: &MapOptions) -> Result<Profiled> {
-    options.check()?;
-    // A map the commands alone make too large is refused before any image
-    // is read.
-    let grid = GridConfig {
-        resolution_m: options.resolution,
-        ..GridConfig::default()
-    };
-    pirouette::mapping::check_extent(
-        &ds.manifest.frames,
-        ds.manifest.max_range * options.far_reach,
-        &grid,
-    )
-    .with_context(|| ds.manifest_path().display().to_string())?;
-    let run = options.sweep.run_all(ds)?;
-    let config = options.config(&run.config)?;
-    let blind_m = run
-        .extractor
-        .table()
-        .blind_range()
-        .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
-    Ok(Profiled { run, blind_m, config })
+/// Profiles and sweeps of a dataset, with a progress bar.
+pub fn sweep_dataset(ds: &Dataset, options: &MapOptions) -> Result<(Swept, MapConfig)> {
+    let config = options.pipeline()?;
+    let bar = super::progress(ds.manifest.frames.len(), "profile");
+    let swept = pipeline::sweep_dataset(ds, &config, &|_| bar.inc(1))?;
+    bar.finish_and_clear();
+    let map_config = swept.map_config(&config);
+    Ok((swept, map_config))
 }
 
 /// Maps a dataset with a progress bar per stage.
 pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
-    let profiled = profile_dataset(ds, options)?;
-    let run = &profiled.run;
-    let bar = super::progress(pirouette::mapping::progress_steps(run.sweeps.len()), "register");
-    let map = build_map(
-        &ds.manifest.frames,
-        &run.rops,
-        &run.compared,
-        &run.sweeps,
-        profiled.blind_m,
-        &profiled.config,
-        || bar.inc(1),
-    )
-    .with_context(|| ds.manifest_path().display().to_string())?;
-    bar.finish_and_clear();
-    Ok(Mapped { profiled, map })
+    let config = options.pipeline()?;
+    // A sweep starts at every frame not reached by a turn.
+    let sweeps = ds
+        .manifest
+        .frames
+        .iter()
+        .filter(|f| !matches!(f.motion, Some(Motion::Turn { .. })))
+        .count();
+    let profile = super::progress(ds.manifest.frames.len(), "profile");
+    let register = super::progress(progress_steps(sweeps), "register");
+    register.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    let mapped = pipeline::map_dataset(ds, &config, &|stage| match stage {
+        Stage::Profiled => profile.inc(1),
+        Stage::Placed => {
+            if !profile.is_finished() {
+                profile.finish_and_clear();
+                register.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            }
+            register.inc(1)
+        }
+    })?;
+    profile.finish_and_clear();
+    register.finish_and_clear();
+    Ok(mapped)
 }
 
 /// Writes the map folder of a mapped dataset.
@@ -190,11 +171,16 @@ pub fn write_map(ds: &Dataset, mapped: &Mapped, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Evaluates the map folder `dir` of `ds`, made from `profiled` (whose
-/// profiles also make the true-pose map beside it).
-pub fn evaluate(ds: &Dataset, profiled: &Profiled, dir: &Path, tolerance_cells: f64) -> Result<MapReport> {
-    let span_rad = profiled
-        .run
+/// Evaluates the map folder `dir` of `ds`, made from `swept` with
+/// `config` (whose profiles also make the true-pose map beside it).
+pub fn evaluate(
+    ds: &Dataset,
+    swept: &Swept,
+    config: &MapConfig,
+    dir: &Path,
+    tolerance_cells: f64,
+) -> Result<MapReport> {
+    let span_rad = swept
         .extractor
         .table()
         .bearing_span()
@@ -203,11 +189,11 @@ pub fn evaluate(ds: &Dataset, profiled: &Profiled, dir: &Path, tolerance_cells: 
         ds,
         dir,
         MapInputs {
-            rops: &profiled.run.rops,
-            blind_m: profiled.blind_m,
+            rops: &swept.rops,
+            blind_m: swept.blind_m,
             span_rad,
-            grid: &profiled.config.grid,
-            pivot_m: profiled.config.sweep.matching.pivot_m,
+            grid: &config.grid,
+            pivot_m: config.sweep.matching.pivot_m,
         },
         tolerance_cells,
     )
@@ -220,7 +206,7 @@ pub fn map(a: MapArgs) -> Result<()> {
     super::check_output_dir(&a.out)?;
     let mapped = map_dataset(&ds, &a.options)?;
     write_map(&ds, &mapped, &a.out)?;
-    let [px, py] = mapped.profiled.config.sweep.matching.pivot_m;
+    let [px, py] = mapped.config.sweep.matching.pivot_m;
     outln!(
         "the robot turns about ({:+.1}, {:+.1}) mm from its centre (x forward, y left), as its verified turns measure it",
         px * 1000.0,
@@ -284,8 +270,8 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
     let ds = open_camera_dataset(&a.dataset)?;
     truth_in_map_frame(&ds)?;
     // Only the profiles are needed: the map and poses are read from DIR.
-    let profiled = profile_dataset(&ds, &a.options)?;
-    let r = evaluate(&ds, &profiled, &a.dir, a.tolerance_cells)?;
+    let (swept, config) = sweep_dataset(&ds, &a.options)?;
+    let r = evaluate(&ds, &swept, &config, &a.dir, a.tolerance_cells)?;
     if a.json {
         outln!("{}", serde_json::to_string(&r)?)?;
         return Ok(());

@@ -146,7 +146,7 @@ pub fn example(a: ExampleArgs) -> Result<()> {
     // Verified turns, sweeps and the map, on fine profiles.
     let options = super::map::MapOptions::default();
     let mapped = super::map::map_dataset(&ds, &options)?;
-    if let Some(tally) = tally_sweeps(&ds, &mapped.profiled.run.sweeps) {
+    if let Some(tally) = tally_sweeps(&ds, &mapped.swept.sweeps) {
         let t = tally.scores();
         outln!(
             "turns     {:.0} % verified, median error {:.2}° (commanded {:.2}°); verified turns off by over 3°: {}",
@@ -163,7 +163,7 @@ pub fn example(a: ExampleArgs) -> Result<()> {
     }
     let map_dir = a.out.join("map");
     super::map::write_map(&ds, &mapped, &map_dir)?;
-    let report = super::map::evaluate(&ds, &mapped.profiled, &map_dir, 2.0)?;
+    let report = super::map::evaluate(&ds, &mapped.swept, &mapped.config, &map_dir, 2.0)?;
     outln!(
         "map       trajectory error {:.2} cm (ATE, aligned; commanded motion {:.2} cm); occupied-cell F1 {:.3} (true poses {:.3})",
         report.trajectory.ate_aligned_m * 100.0,
@@ -171,7 +171,7 @@ pub fn example(a: ExampleArgs) -> Result<()> {
         report.map.f1,
         report.true_pose_map.f1
     )?;
-    let sweeps = &mapped.profiled.run.sweeps;
+    let sweeps = &mapped.swept.sweeps;
     let sweep_dir = a.out.join("sweeps");
     super::plots::sweep_plots(sweeps, &sweep_dir)?;
     outln!(

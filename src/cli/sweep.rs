@@ -3,7 +3,7 @@
 use super::profile::ProfileOptions;
 use anyhow::{bail, Result};
 use pirouette::eval::{tally_sweeps, SweepTally};
-use pirouette::pipeline::{self, DatasetSweep};
+use pirouette::pipeline::{self, DatasetSweep, PipelineConfig};
 use pirouette::profile::matching::{MatchConfig, Measure};
 use pirouette::profile::sweep::SweepConfig;
 use serde_json::json;
@@ -54,50 +54,22 @@ impl SweepOptions {
         Ok(())
     }
 
-    fn run(&self, ds: &pirouette::io::Dataset) -> Result<Vec<DatasetSweep>> {
-        Ok(self.run_all(ds)?.sweeps)
-    }
-
-    /// Profiles every frame and assembles the sweeps.
-    pub fn run_all(&self, ds: &pirouette::io::Dataset) -> Result<SweepRun> {
-        let bar = super::progress(ds.manifest.frames.len(), "profile");
-        let profiles = pipeline::sweep_profiles(
-            ds,
-            self.profile.model(),
-            self.profile.config(self.bin_deg)?,
-            || bar.inc(1),
-        )?;
-        bar.finish_and_clear();
-        let pipeline::SweepProfiles {
-            extractor,
-            rops,
-            compared,
-            matched,
-        } = profiles;
-        let (sweeps, config) = pipeline::sweeps(ds, &extractor, &rops, &matched, &self.config()?);
-        Ok(SweepRun {
-            extractor,
-            rops,
-            compared,
-            sweeps,
-            config,
+    /// The run's settings: these sweep settings, mapping's defaults.
+    pub fn pipeline(&self) -> Result<PipelineConfig> {
+        Ok(PipelineConfig {
+            model: self.profile.model(),
+            vision: self.profile.config(self.bin_deg)?,
+            sweep: self.config()?,
+            ..PipelineConfig::default()
         })
     }
-}
 
-/// Profiles and sweeps of a dataset, with what made them.
-pub struct SweepRun {
-    /// The extractor (camera tables, settings).
-    pub extractor: pirouette::vision::RopExtractor,
-    /// One profile per frame, every cue on: for the map's grid.
-    pub rops: Vec<pirouette::profile::Rop>,
-    /// One profile per frame for comparing views (see
-    /// [`pipeline::SweepProfiles::compared`]).
-    pub compared: Vec<pirouette::profile::Rop>,
-    /// The sweeps assembled.
-    pub sweeps: Vec<DatasetSweep>,
-    /// The sweep settings used.
-    pub config: SweepConfig,
+    fn run(&self, ds: &pirouette::io::Dataset) -> Result<Vec<DatasetSweep>> {
+        let bar = super::progress(ds.manifest.frames.len(), "profile");
+        let swept = pipeline::sweep_dataset(ds, &self.pipeline()?, &|_| bar.inc(1))?;
+        bar.finish_and_clear();
+        Ok(swept.sweeps)
+    }
 }
 
 /// Arguments of `pirouette sweep`.
