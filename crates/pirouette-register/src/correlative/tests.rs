@@ -1,0 +1,247 @@
+//! Tests of `correlative`.
+
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// The walls of a 1.5 × 1.3 m box and a post, sampled every 2 mm.
+fn room() -> Vec<Point2> {
+    let mut pts = Vec::new();
+    let n = 750;
+    for k in 0..=n {
+        let t = k as f64 / n as f64;
+        pts.push(Point2::new(1.5 * t, 0.0));
+        pts.push(Point2::new(1.5 * t, 1.3));
+        pts.push(Point2::new(0.0, 1.3 * t));
+        pts.push(Point2::new(1.5, 1.3 * t));
+    }
+    for k in 0..200 {
+        let a = k as f64 / 200.0 * std::f64::consts::TAU;
+        pts.push(Point2::new(0.5 + 0.05 * a.cos(), 0.6 + 0.05 * a.sin()));
+    }
+    pts
+}
+
+fn field_of(world: &[Point2]) -> LikelihoodField {
+    LikelihoodField::from_points(world, 0.01, 0.015, 0.2)
+}
+
+/// What a robot at `pose` sees of `world` within `max_range`, in its
+/// own frame (no occlusion: enough for a registration test).
+fn seen_from(world: &[Point2], pose: &Pose2, max_range: f64, noise_m: f64, seed: u64) -> Vec<Point2> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let inv = pose.inverse();
+    world
+        .iter()
+        .map(|p| inv.transform_point(*p))
+        .filter(|p| p.norm() <= max_range)
+        .map(|p| {
+            Point2::new(
+                p.x + rng.random_range(-noise_m..noise_m),
+                p.y + rng.random_range(-noise_m..noise_m),
+            )
+        })
+        .collect()
+}
+
+/// The posterior's covariance skips poses far below the best without
+/// their `exp`, and the result is exactly that of the poses the
+/// definition keeps (weight at least [`NEGLIGIBLE`]) alone, in order.
+#[test]
+fn skipping_negligible_poses_leaves_the_covariance_exact() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let poses: Vec<(f64, Vector3<f64>)> = (0..4000)
+        .map(|_| {
+            // Log weights from 0 down to −40 below the best: about
+            // half skipped unseen, a few weighed and dropped, the rest
+            // kept.
+            let score = 3.0 - rng.random_range(0.0..40.0f64);
+            let x = Vector3::new(
+                rng.random_range(-0.1..0.1),
+                rng.random_range(-0.1..0.1),
+                rng.random_range(-0.2..0.2),
+            );
+            (score, x)
+        })
+        .collect();
+    let best = poses.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    let kept: Vec<(f64, Vector3<f64>)> = poses
+        .iter()
+        .copied()
+        .filter(|(score, _)| (score - best).exp() >= NEGLIGIBLE)
+        .collect();
+    let unseen = poses.iter().filter(|p| p.0 - best < NEGLIGIBLE_LN).count();
+    assert!(unseen > 1000 && kept.len() > 1000 && unseen + kept.len() < poses.len());
+    let (res, step) = (0.01, 0.004);
+    assert_eq!(
+        lattice_covariance(poses.iter().copied(), best, res, step),
+        lattice_covariance(kept, best, res, step)
+    );
+}
+
+/// Random walls and posts, seen from a random pose with noise, and a
+/// prior off the truth by up to its own spread: the branch-and-bound
+/// search finds the exhaustive search's best pose, covariance and rival
+/// to the bit, scoring fewer poses.
+#[test]
+fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let (mut cases, mut scored, mut all, mut rivals) = (0, 0, 0, 0);
+    for case in 0..24 {
+        let mut world = Vec::new();
+        for _ in 0..rng.random_range(2..7) {
+            let (x0, y0) = (rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5));
+            let angle: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let length = rng.random_range(0.3..2.0);
+            for k in 0..(length / 0.004) as usize {
+                let t = k as f64 * 0.004;
+                world.push(Point2::new(x0 + t * angle.cos(), y0 + t * angle.sin()));
+            }
+        }
+        for _ in 0..rng.random_range(0..4) {
+            let (cx, cy) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+            for k in 0..60 {
+                let a = k as f64 / 60.0 * std::f64::consts::TAU;
+                world.push(Point2::new(cx + 0.04 * a.cos(), cy + 0.04 * a.sin()));
+            }
+        }
+        let field = field_of(&world);
+        let truth = Pose2::new(
+            rng.random_range(-0.3..0.3),
+            rng.random_range(-0.3..0.3),
+            rng.random_range(-3.0..3.0),
+        );
+        let mut seen = seen_from(&world, &truth, rng.random_range(0.8..2.0), 0.004, case);
+        if case % 6 == 5 {
+            // Clutter the map does not hold.
+            seen.extend(
+                (0..40).map(|_| Point2::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))),
+            );
+        }
+        let prior = PosePrior {
+            mean: truth
+                * Pose2::new(
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                ),
+            sigma_forward_m: rng.random_range(0.01..0.06),
+            sigma_left_m: rng.random_range(0.01..0.06),
+            sigma_theta_rad: rng.random_range(0.005..0.05),
+        };
+        let search = |search| RegisterConfig {
+            search,
+            ..RegisterConfig::default()
+        };
+        let full = register(&field, &seen, &prior, &search(Search::Exhaustive)).unwrap();
+        let fast = register(&field, &seen, &prior, &search(Search::BranchAndBound)).unwrap();
+        if full.evaluated == 0 {
+            continue;
+        }
+        assert_eq!(
+            Registration {
+                evaluated: full.evaluated,
+                ..fast.clone()
+            },
+            full,
+            "case {case}"
+        );
+        cases += 1;
+        scored += fast.evaluated;
+        all += full.evaluated;
+        rivals += usize::from(full.rival.is_some());
+    }
+    assert!(cases >= 20, "{cases} cases searched");
+    assert!(rivals >= 1, "no case had a rival peak");
+    assert!(scored * 10 < all, "{scored} of {all} poses scored");
+}
+
+#[test]
+fn recovers_a_pose_far_off_its_prior() {
+    let world = room();
+    let field = field_of(&world);
+    let truth = Pose2::new(1.005, 0.44, 0.06);
+    let seen = seen_from(&world, &truth, 0.9, 0.003, 1);
+    // The command said 0.5 m; the robot went 0.46 m and veered.
+    let start = Pose2::new(0.55, 0.40, 0.03);
+    let prior = PosePrior::after_forward(&start, 0.5, 1f64.to_radians(), &MotionNoise::default());
+    let err0 = prior.mean.between(&truth);
+    assert!(err0.translation().norm() > 0.03 && err0.theta.abs() > 1f64.to_radians());
+    let reg = register(&field, &seen, &prior, &RegisterConfig::default()).unwrap();
+    assert!(reg.accepted);
+    let err = reg.pose.between(&truth);
+    assert!(err.translation().norm() < 0.004, "{err:?}");
+    assert!(err.theta.abs() < 0.2f64.to_radians(), "{err:?}");
+    // The covariance is a covariance, and it is not wider than the prior.
+    let c = reg.covariance;
+    assert!((c - c.transpose()).norm() < 1e-12);
+    assert!(c.symmetric_eigenvalues().iter().all(|&e| e > 0.0));
+    assert!(c[(0, 0)] < prior.covariance()[(0, 0)] && c[(2, 2)] < prior.covariance()[(2, 2)]);
+}
+
+#[test]
+fn a_corridor_is_uncertain_along_its_walls() {
+    // Two long parallel walls along x, nothing across.
+    let mut world = Vec::new();
+    for k in 0..=1500 {
+        let x = k as f64 * 0.002;
+        world.push(Point2::new(x, 0.0));
+        world.push(Point2::new(x, 0.6));
+    }
+    let field = field_of(&world);
+    let truth = Pose2::new(1.5, 0.3, 0.0);
+    let seen = seen_from(&world, &truth, 0.9, 0.002, 2);
+    let start = Pose2::new(1.0, 0.3, 0.0);
+    let prior = PosePrior::after_forward(&start, 0.5, 0.5f64.to_radians(), &MotionNoise::default());
+    let reg = register(&field, &seen, &prior, &RegisterConfig::default()).unwrap();
+    assert!(reg.accepted);
+    assert!(
+        (reg.pose.y - truth.y).abs() < 0.004,
+        "across the corridor: pinned"
+    );
+    let c = reg.covariance;
+    assert!(
+        c[(0, 0)] > 20.0 * c[(1, 1)],
+        "along the corridor: the walls say nothing ({c})"
+    );
+}
+
+#[test]
+fn too_little_to_match_keeps_the_prior_and_says_so() {
+    let world = room();
+    let field = field_of(&world);
+    let prior = PosePrior::after_forward(&Pose2::new(0.5, 0.5, 0.0), 0.3, 0.01, &MotionNoise::default());
+    let few = vec![Point2::new(0.3, 0.0); 3];
+    let reg = register(&field, &few, &prior, &RegisterConfig::default()).unwrap();
+    assert!(!reg.accepted);
+    assert_eq!(reg.pose, prior.mean);
+    assert_eq!(reg.covariance, prior.covariance());
+    let bad = PosePrior {
+        sigma_forward_m: 0.0,
+        ..prior
+    };
+    assert!(register(&field, &few, &bad, &RegisterConfig::default()).is_err());
+}
+
+#[test]
+fn prior_after_forward_moves_along_the_heading() {
+    let start = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+    let p = PosePrior::after_forward(&start, 0.5, 0.0, &MotionNoise::default());
+    assert!((p.mean.x - 1.0).abs() < 1e-12 && (p.mean.y - 2.5).abs() < 1e-12);
+    // Along the heading (world y here) the distance error dominates.
+    let c = p.covariance();
+    assert!((c[(1, 1)] - p.sigma_forward_m.powi(2)).abs() < 1e-12);
+    assert!((c[(0, 0)] - p.sigma_left_m.powi(2)).abs() < 1e-12);
+    assert!((p.sigma_forward_m - (0.05f64).hypot(0.01)).abs() < 1e-12);
+}
+
+#[test]
+fn thinning_keeps_one_point_per_cell() {
+    let pts = [
+        Point2::new(0.001, 0.001),
+        Point2::new(0.009, 0.002),
+        Point2::new(0.011, 0.0),
+        Point2::new(f64::NAN, 0.0),
+    ];
+    assert_eq!(thin_points(&pts, 0.01), vec![pts[0], pts[2]]);
+}

@@ -1,0 +1,816 @@
+//! Tests of `extract`.
+
+use super::*;
+use crate::scan::{smoothed, FloorTrack};
+use pirouette_camera::PinholeModel;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn cam() -> PinholeModel {
+    PinholeModel {
+        width: 320,
+        height: 240,
+        fx: 277.1281,
+        fy: 277.1281,
+        cx: 159.5,
+        cy: 119.5,
+        height_m: 0.1,
+        tilt_rad: 25f64.to_radians(),
+        mount_forward_m: 0.0,
+        mount_left_m: 0.0,
+    }
+}
+
+/// Dark floor below row `edge` (exact sub-pixel edge), white wall above.
+fn wall_image(edge: f32) -> image::RgbImage {
+    image::RgbImage::from_fn(320, 240, |_, v| {
+        // Share of the pixel [v−½, v+½] above the edge.
+        let a = (edge - (v as f32 - 0.5)).clamp(0.0, 1.0);
+        let val = 30.0 + a * (220.0 - 30.0);
+        image::Rgb([val as u8, val as u8, val as u8])
+    })
+}
+
+/// The oracle for the lock-step scan: each column scanned on its own,
+/// every candidate decided on the spot by following the floor over its
+/// run (the plain form of what the lock-step scan does with deferred
+/// candidates).
+fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[Seed]) -> ColumnBoundary {
+    let (m, n) = (ex.width, ex.height);
+    let top = ex.top_floor[u as usize];
+    if top >= n {
+        return ColumnBoundary::NoFloor;
+    }
+    let pix = |v: u32| smoothed(px, m, u, v);
+    let seed_rows = SEED_ROWS.min(n - top);
+    let classifier = ex.classifier(sigma);
+    // The seeds are the scan's (tested on their own below).
+    let FloorTrack { level, trend } = match seeds[u as usize] {
+        Seed::NoFloor => return ColumnBoundary::NoFloor,
+        Seed::Clear { top_row } => return ColumnBoundary::Clear { top_row },
+        Seed::Track(t) => t,
+    };
+    let (rate, trend_rate) = (ex.config.adapt_rate, ex.config.trend_rate);
+    let edge = classifier.scaled(ex.config.edge_fraction);
+    let both = classifier.scaled_both(ex.config.edge_fraction);
+    let faint = classifier.scaled_both(ex.config.faint_step_fraction);
+    let grey_sigma = grey_noise_sigma(px, m, n);
+    let mut track = FloorTrack { level, trend };
+    let (mut close_below, mut steady_below, mut faint_below) = (true, true, true);
+    let mut v = n - seed_rows - 1;
+    loop {
+        let p = pix(v);
+        let pred = track.predict();
+        let masks = classifier.masks(&p, &pred, &both, faint.brightness_step);
+        let (floor, close) = (masks.floor != 0, masks.close != 0);
+        let steady = close && masks.steady != 0;
+        let faint_steady = close && masks.faint_steady != 0;
+        if !floor {
+            let run = ex.run_rows[(v * m + u) as usize].max(1) as u32;
+            let lo = (v + 1).saturating_sub(run);
+            let mut ahead = track;
+            let off = (lo..=v)
+                .rev()
+                .filter(|&w| {
+                    let q = pix(w);
+                    let f = classifier.is_floor(&q, &ahead.predict());
+                    ahead.step(&q, f, rate, trend_rate);
+                    !f
+                })
+                .count();
+            if off as f32 >= ex.config.run_fraction * (v - lo + 1) as f32
+                && ex.column_confirms(px, u, v, &pred, &classifier)
+            {
+                return ex.refine(px, u, v, pred, track.trend);
+            }
+        } else if !close && close_below {
+            let mut coasted = track;
+            coasted.step(&p, false, rate, trend_rate);
+            if ex.edge_confirms(px, u, v, coasted, &edge) {
+                return ex.refine(px, u, v, pred, track.trend);
+            }
+        } else if close
+            && !steady
+            && steady_below
+            && ex.config.texture_ratio > 0.0
+            && ex.bright_edge_confirms(
+                px,
+                u,
+                v,
+                (&both, ex.config.texture_ratio),
+                grey_sigma,
+                (&pred, &classifier),
+            )
+        {
+            return ex.refine(px, u, v, pred, track.trend);
+        } else if steady
+            && !faint_steady
+            && faint_below
+            && ex.config.faint_steps()
+            && ex.bright_edge_confirms(
+                px,
+                u,
+                v,
+                (&faint, ex.config.faint_texture_ratio),
+                grey_sigma,
+                (&pred, &classifier),
+            )
+        {
+            return ex.refine(px, u, v, pred, track.trend);
+        }
+        track.step(&p, floor, rate, trend_rate);
+        close_below = close;
+        steady_below = steady;
+        faint_below = faint_steady;
+        if v == top {
+            return ColumnBoundary::Clear { top_row: top };
+        }
+        v -= 1;
+    }
+}
+
+/// The lock-step scan finds exactly what scanning each column on its
+/// own finds, on images with a blotchy, grained floor that brightens
+/// upwards, noise, specks, and walls and boxes of many heights and
+/// contrasts (some close to the floor's colour, some smooth and of the
+/// floor's own hue), with the texture cue off, on without its faint
+/// steps, and on.
+#[test]
+fn lock_step_scan_equals_the_column_by_column_oracle() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut rand = move || rng.random::<f32>();
+    let mut compared = 0;
+    let mut texture_found = 0;
+    let mut faint_found = 0;
+    for width in [320u32, 75] {
+        let c = PinholeModel {
+            width,
+            cx: (width as f64 - 1.0) / 2.0,
+            ..cam()
+        };
+        let textured = RopExtractor::new(&c, 0.9, VisionConfig::default());
+        let no_faint = RopExtractor::new(
+            &c,
+            0.9,
+            VisionConfig {
+                faint_texture_ratio: 0.0,
+                ..VisionConfig::default()
+            },
+        );
+        let plain = RopExtractor::new(
+            &c,
+            0.9,
+            VisionConfig::default()
+                .for_matching()
+                .expect("the cue is on by default"),
+        );
+        for _ in 0..4 {
+            // Obstacles: (first column, last column, base row, colour);
+            // every other one smooth grey of the floor's hue.
+            let boxes: Vec<(u32, u32, f32, [f32; 3])> = (0..6)
+                .map(|k| {
+                    let a = (rand() * width as f32) as u32;
+                    let w = 3 + (rand() * 80.0) as u32;
+                    let contrast = 0.8 + 0.5 * rand();
+                    let colour = if k % 2 == 0 {
+                        [90.0 * contrast, 85.0, 80.0 / contrast]
+                    } else {
+                        let shade = 0.8 + 0.1 * rand();
+                        [70.0 * shade, 66.0 * shade, 60.0 * shade]
+                    };
+                    (a, a + w, 20.0 + 200.0 * rand(), colour)
+                })
+                .collect();
+            let blotch: Vec<f32> = (0..64).map(|_| 0.9 + 0.2 * rand()).collect();
+            // Grain in cells of 2 × 2 pixels.
+            let grain: Vec<f32> = (0..(width as usize / 2 + 1) * 120)
+                .map(|_| 0.94 + 0.12 * rand())
+                .collect();
+            let mut img = image::RgbImage::new(width, 240);
+            for (u, v, p) in img.enumerate_pixels_mut() {
+                let wall = boxes
+                    .iter()
+                    .filter(|b| (b.0..=b.1).contains(&u) && (v as f32) < b.2)
+                    .max_by(|x, y| x.2.total_cmp(&y.2));
+                let mut rgb = match wall {
+                    Some(b) => b.3,
+                    None => {
+                        let k = blotch[((u / 40) * 8 + v / 30) as usize % 64]
+                            * grain[(v / 2) as usize * (width as usize / 2 + 1) + (u / 2) as usize];
+                        let lift = 1.0 + 0.004 * (239 - v) as f32;
+                        [70.0 * k * lift, 66.0 * k * lift, 60.0 * k * lift]
+                    }
+                };
+                if rand() < 0.002 {
+                    rgb = [240.0; 3];
+                }
+                *p = image::Rgb(rgb.map(|x| (x + 6.0 * (rand() - 0.5)).clamp(0.0, 255.0) as u8));
+            }
+            let px = img.as_raw();
+            let sigma = noise_sigma(px, width, 240);
+            let without = plain.boundaries(&img).unwrap();
+            let strong_only = no_faint.boundaries(&img).unwrap();
+            for ex in [&plain, &no_faint, &textured] {
+                let lock_step = ex.boundaries(&img).unwrap();
+                let seeds = ex.seeds(px, &ex.classifier(sigma));
+                for (u, found) in lock_step.iter().enumerate() {
+                    assert_eq!(
+                        *found,
+                        column_by_column(ex, px, u as u32, sigma, &seeds),
+                        "width {width} column {u}, texture ratio {}",
+                        ex.config.texture_ratio
+                    );
+                }
+                compared += lock_step
+                    .iter()
+                    .filter(|b| matches!(b, ColumnBoundary::Obstacle { .. }))
+                    .count();
+            }
+            let with = textured.boundaries(&img).unwrap();
+            texture_found += with.iter().zip(&without).filter(|(a, b)| a != b).count();
+            faint_found += with.iter().zip(&strong_only).filter(|(a, b)| a != b).count();
+        }
+    }
+    assert!(compared > 1000, "only {compared} obstacle columns compared");
+    assert!(
+        texture_found > 50,
+        "the texture cue changed only {texture_found} columns"
+    );
+    assert!(faint_found > 10, "faint steps changed only {faint_found} columns");
+}
+
+/// Columns are scanned side by side in blocks; each must find its own
+/// edge, whatever its neighbours do and however the width splits into
+/// blocks.
+#[test]
+fn every_column_finds_its_own_edge() {
+    for width in [320u32, 37, 9] {
+        let c = PinholeModel {
+            width,
+            cx: (width as f64 - 1.0) / 2.0,
+            ..cam()
+        };
+        // A staircase of walls three columns wide: group g = u/3 has
+        // its edge at row 40 + 9 (g mod 7), groups g mod 7 = 6 see floor
+        // only.
+        let edge = |u: u32| {
+            let g = u / 3 % 7;
+            (g != 6).then_some(40.0 + 9.0 * g as f32)
+        };
+        let img = image::RgbImage::from_fn(width, 240, |u, v| match edge(u) {
+            Some(e) if (v as f32) < e => image::Rgb([220, 220, 220]),
+            _ => image::Rgb([30, 30, 30]),
+        });
+        let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+        let b = ex.boundaries(&img).unwrap();
+        assert_eq!(b.len(), width as usize);
+        let mut checked = 0;
+        for (u, col) in b.iter().enumerate() {
+            let u = u as u32;
+            // The smoothing across three columns blurs a column whose
+            // neighbour's wall stands on another row: checked are the
+            // others.
+            let neighbours_agree = [u.saturating_sub(1), (u + 1).min(width - 1)]
+                .iter()
+                .all(|&w| edge(w) == edge(u));
+            if !neighbours_agree {
+                continue;
+            }
+            checked += 1;
+            match (edge(u), *col) {
+                (Some(e), ColumnBoundary::Obstacle { row, .. }) => {
+                    assert!(
+                        (row - (e - 0.5)).abs() < 0.05,
+                        "width {width} column {u}: {row} vs {e}"
+                    )
+                }
+                (None, ColumnBoundary::Clear { top_row }) => {
+                    assert_eq!(top_row, ex.top_floor[u as usize])
+                }
+                (e, found) => panic!("width {width} column {u}: edge {e:?}, found {found:?}"),
+            }
+        }
+        assert!(
+            checked >= width as usize / 3,
+            "width {width}: {checked} columns checked"
+        );
+    }
+}
+
+/// Of the columns of `img` scanned with `config`: those whose boundary
+/// lies within `tolerance` rows of `row`, and those that see no
+/// obstacle.
+fn base_and_clear(config: VisionConfig, img: &image::RgbImage, row: f32, tolerance: f32) -> (usize, usize) {
+    let b = RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap();
+    let at_base = b
+        .iter()
+        .filter(|c| matches!(c, ColumnBoundary::Obstacle { row: r, .. } if (r - row).abs() < tolerance))
+        .count();
+    let clear = b
+        .iter()
+        .filter(|c| matches!(c, ColumnBoundary::Clear { .. }))
+        .count();
+    (at_base, clear)
+}
+
+/// A wall 12 % brighter than the floor and 3.5 % off in chromaticity
+/// lies inside the floor's tolerances, (12/18)² + (3.5/5)² = 0.93: its
+/// sharp base is found by the edge cue and only by it. The same colour
+/// reached gradually, or a sharp step of brightness alone, stays floor.
+#[test]
+fn edge_cue_finds_sharp_steps_of_chromaticity_only() {
+    let floor = [100.0f32, 95.0, 85.0];
+    let wall = [115.9f32, 105.7, 92.0];
+    let bright = floor.map(|x| x * 1.12);
+    let image = |top: [f32; 3], ramp_rows: f32| {
+        image::RgbImage::from_fn(320, 240, |_, v| {
+            // Wall colour above row 60, blended over `ramp_rows` below.
+            let a = ((60.0 + ramp_rows - v as f32) / ramp_rows.max(1.0)).clamp(0.0, 1.0);
+            let a = if ramp_rows == 0.0 {
+                (v < 60) as u8 as f32
+            } else {
+                a
+            };
+            image::Rgb(std::array::from_fn(|c| {
+                (floor[c] + a * (top[c] - floor[c])).round() as u8
+            }))
+        })
+    };
+    let scan = |img: &image::RgbImage, edge_fraction: f32| {
+        let config = VisionConfig {
+            edge_fraction,
+            ..VisionConfig::default()
+        };
+        base_and_clear(config, img, 59.5, 0.6)
+    };
+    let sharp = image(wall, 0.0);
+    assert_eq!(scan(&sharp, 0.5), (320, 0), "the wall's base, every column");
+    assert_eq!(
+        scan(&sharp, 1.0),
+        (0, 320),
+        "without the edge cue the wall is floor"
+    );
+    assert_eq!(
+        scan(&image(wall, 40.0), 0.5),
+        (0, 320),
+        "a gradual change is followed"
+    );
+    assert_eq!(
+        scan(&image(bright, 0.0), 0.5),
+        (0, 320),
+        "a step of brightness alone is lighting"
+    );
+}
+
+/// A grained floor (cells of 2 × 2 pixels, ±8 %) meeting at row 60
+/// either a smooth surface of the floor's own hue, `shade` times as
+/// bright, or (`grained_above`) the same shade with the floor's grain
+/// on it (a seam, a tonal patch).
+fn shaded_floor(shade: f32, grained_above: bool, grain: f32) -> image::RgbImage {
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let grain: Vec<f32> = (0..160 * 120)
+        .map(|_| 1.0 - grain + 2.0 * grain * rng.random::<f32>())
+        .collect();
+    let noise: Vec<f32> = (0..320 * 240)
+        .map(|_| 4.0 * (rng.random::<f32>() - 0.5))
+        .collect();
+    let floor = [100.0f32, 95.0, 85.0];
+    image::RgbImage::from_fn(320, 240, |u, v| {
+        let g = grain[(v / 2 * 160 + u / 2) as usize];
+        let (shade, g) = if v < 60 {
+            (shade, if grained_above { g } else { 1.0 })
+        } else {
+            (1.0, g)
+        };
+        let n = noise[(v * 320 + u) as usize];
+        image::Rgb(floor.map(|c| (c * shade * g + n).round().clamp(0.0, 255.0) as u8))
+    })
+}
+
+/// A smooth wall of the floor's own hue, 14 % darker, over a grained
+/// floor: no colour test can tell it from shade, but its base is found
+/// by the texture cue and only by it. Not in every column: where the
+/// grain just below softens the step, it is no longer sharp within one
+/// row (the cue's known weakness, a wall seen in stretches); never
+/// anywhere but at the base, or one cell of grain below it where a dark
+/// cell there steps faintly into the wall. The same step with the
+/// floor's grain above it (a seam, a tonal patch) stays floor but in a
+/// few columns.
+#[test]
+fn texture_cue_finds_smooth_walls_of_the_floors_hue() {
+    let scan = |img: &image::RgbImage, texture_ratio: f32| {
+        let config = VisionConfig {
+            texture_ratio,
+            ..VisionConfig::default()
+        };
+        base_and_clear(config, img, 60.0, 2.0)
+    };
+    let wall = shaded_floor(0.86, false, 0.08);
+    let (found, clear) = scan(&wall, 0.6);
+    assert!(found >= 240, "the wall's base in {found} of 320 columns");
+    assert_eq!(found + clear, 320, "a boundary away from the wall's base");
+    let (without, _) = scan(&wall, 0.0);
+    assert!(
+        without <= 10,
+        "without the cue the wall is floor: {without} columns"
+    );
+    // Each column's windows hold about 30 independent samples a side:
+    // by chance a few columns of a seam still pass (11 of 320 here).
+    let (seam, _) = scan(&shaded_floor(0.86, true, 0.08), 0.6);
+    assert!(seam <= 16, "a step with grain on both sides: {seam} columns");
+}
+
+/// A smooth wall only 8 % darker than a finely grained floor (±4 %)
+/// steps by less than half the brightness tolerance: the faint cue
+/// finds its base (in 186 of 320 columns here, 7 without it) where the
+/// texture above drops to a third of the floor's. The same step with
+/// the grain on both sides stays floor but in a few columns (9 here).
+#[test]
+fn faint_steps_of_smooth_walls_are_found_by_their_texture() {
+    let scan = |img: &image::RgbImage, faint_texture_ratio: f32| {
+        let config = VisionConfig {
+            faint_texture_ratio,
+            ..VisionConfig::default()
+        };
+        base_and_clear(config, img, 60.0, 2.0)
+    };
+    let wall = shaded_floor(0.92, false, 0.04);
+    let (found, clear) = scan(&wall, VisionConfig::default().faint_texture_ratio);
+    assert!(found >= 150, "the wall's base in {found} of 320 columns");
+    assert_eq!(found + clear, 320, "a boundary away from the wall's base");
+    let (without, _) = scan(&wall, 0.0);
+    assert!(
+        without <= 10,
+        "without faint steps the wall is floor: {without} columns"
+    );
+    let (seam, _) = scan(
+        &shaded_floor(0.92, true, 0.04),
+        VisionConfig::default().faint_texture_ratio,
+    );
+    assert!(
+        seam <= 14,
+        "a faint step with grain on both sides: {seam} columns"
+    );
+}
+
+/// The profiles turns are verified on: every setting kept but the
+/// texture cue, which is turned off; none where it is off already.
+#[test]
+fn matching_settings_drop_only_the_texture_cue() {
+    let config = VisionConfig {
+        bin_width_rad: 0.25f64.to_radians(),
+        min_brightness_step: 0.2,
+        ..VisionConfig::default()
+    };
+    assert!(config.texture_ratio > 0.0, "the cue is on by default");
+    let matching = config.for_matching().expect("the cue was on");
+    assert_eq!(
+        matching,
+        VisionConfig {
+            texture_ratio: 0.0,
+            ..config.clone()
+        }
+    );
+    assert!(matching.validate().is_ok());
+    assert_eq!(matching.for_matching(), None);
+}
+
+/// The profiles views are compared on: every setting kept but the
+/// faint steps; none where they are off, or where the texture cue they
+/// belong to is.
+#[test]
+fn comparing_settings_drop_only_the_faint_steps() {
+    let config = VisionConfig {
+        bin_width_rad: 0.25f64.to_radians(),
+        min_brightness_step: 0.2,
+        ..VisionConfig::default()
+    };
+    assert!(config.faint_steps(), "faint steps are on by default");
+    let comparing = config.for_comparing().expect("faint steps were on");
+    assert_eq!(
+        comparing,
+        VisionConfig {
+            faint_texture_ratio: 0.0,
+            ..config.clone()
+        }
+    );
+    assert!(comparing.validate().is_ok());
+    assert_eq!(comparing.for_comparing(), None);
+    let matching = config.for_matching().expect("the texture cue was on");
+    assert!(!matching.faint_steps(), "no faint steps without the texture cue");
+    assert_eq!(matching.for_comparing(), None);
+    // A faint fraction at or above the edge fraction leaves nothing
+    // between them.
+    let none_between = VisionConfig {
+        faint_step_fraction: 0.5,
+        ..config
+    };
+    assert!(!none_between.faint_steps());
+}
+
+#[test]
+fn finds_sub_pixel_edge_of_a_wall() {
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    for edge in [60.0, 60.3, 60.5, 100.8] {
+        let b = ex.boundaries(&wall_image(edge)).unwrap();
+        for col in &b {
+            let ColumnBoundary::Obstacle { row, .. } = *col else {
+                panic!("{col:?}")
+            };
+            assert!((row - edge).abs() < 0.05, "edge {edge}: found {row}");
+        }
+    }
+}
+
+/// A floor that darkens steadily toward the base of a darker wall (as
+/// shading toward a wall does): the edge is still where the pixels put
+/// it, not pulled down by the floor's own change across the window.
+#[test]
+fn sub_pixel_edge_holds_on_a_floor_that_darkens_toward_the_wall() {
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    for edge in [60.3, 100.8] {
+        let img = image::RgbImage::from_fn(320, 240, |_, v| {
+            let a = (edge - (v as f32 - 0.5)).clamp(0.0, 1.0);
+            // The floor's value at the pixel's centre: 0.8 a row darker
+            // toward the wall (its mean over the pixel, the ramp being
+            // linear).
+            let floor = 100.0 + 0.8 * (v as f32 - edge);
+            let val = a * 40.0 + (1.0 - a) * floor;
+            image::Rgb([val as u8; 3])
+        });
+        for col in &ex.boundaries(&img).unwrap() {
+            let ColumnBoundary::Obstacle { row, .. } = *col else {
+                panic!("{col:?}")
+            };
+            assert!((row - edge).abs() < 0.05, "edge {edge}: found {row}");
+        }
+    }
+}
+
+#[test]
+fn wall_range_matches_the_camera_model() {
+    let c = cam();
+    let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+    let rop = ex.rop(&wall_image(70.25)).unwrap();
+    let i = rop.bin_of(0.0).unwrap();
+    let expect = c.pixel_to_floor(159.5, 70.25).unwrap().x as f32;
+    assert!(
+        (rop.reliable(i).unwrap() - expect).abs() < 0.002,
+        "{:?} vs {expect}",
+        rop.reliable(i)
+    );
+}
+
+/// At the sides of the view only the near floor is seen: a bin there
+/// with nothing in sight is free only as far as the floor seen in it,
+/// while the middle bins see free floor to the soft limit.
+#[test]
+fn side_bins_are_free_only_as_far_as_they_are_seen() {
+    let c = cam();
+    let ex = RopExtractor::new(&c, 0.9, VisionConfig::default());
+    let rop = ex
+        .rop(&image::RgbImage::from_pixel(320, 240, image::Rgb([40, 40, 45])))
+        .unwrap();
+    let middle = rop.bin_of(0.0).unwrap();
+    assert_eq!(rop.free_reach(middle), f32::INFINITY);
+    // The widest bearing the top image row sees on the floor: beyond it,
+    // only nearer floor.
+    let top_edge = c.pixel_to_floor(0.0, 0.0).unwrap();
+    let beyond = rop
+        .bin_of(top_edge.y.atan2(top_edge.x) + 2f64.to_radians())
+        .unwrap();
+    let reach = rop.free_reach(beyond);
+    assert!(
+        rop.seen(beyond) && reach > 0.1 && reach < 0.9,
+        "side bin seen to {reach} m"
+    );
+}
+
+/// A plain floor brightening 1 % per row upwards, 320 × 240.
+fn brightening_floor() -> image::RgbImage {
+    image::RgbImage::from_fn(320, 240, |_, v| {
+        let val = 40.0 * (1.0 + 0.01 * (239 - v) as f32);
+        image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+    })
+}
+
+/// The columns of `img` that the default extractor does not find clear.
+fn obstacle_columns(img: &image::RgbImage) -> Vec<usize> {
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    let b = ex.boundaries(img).unwrap();
+    (0..b.len())
+        .filter(|&u| !matches!(b[u], ColumnBoundary::Clear { .. }))
+        .collect()
+}
+
+#[test]
+fn specks_and_gradients_are_floor() {
+    // Floor brightening 1 % per row upwards, with small bright specks.
+    let mut img = brightening_floor();
+    for (cu, cv) in [(50u32, 200u32), (160, 150), (250, 90), (100, 40)] {
+        for du in 0..4 {
+            for dv in 0..4 {
+                img.put_pixel(cu + du, cv + dv, image::Rgb([240, 240, 240]));
+            }
+        }
+    }
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    let b = ex.boundaries(&img).unwrap();
+    assert!(
+        b.iter().all(|c| matches!(c, ColumnBoundary::Clear { .. })),
+        "{:?}",
+        b.iter().find(|c| !matches!(c, ColumnBoundary::Clear { .. }))
+    );
+    let rop = ex.rop(&img).unwrap();
+    assert!((0..rop.len()).all(|i| rop.reliable(i).is_none()));
+}
+
+/// A floor half as bright in the bottom rows as higher up, brightening
+/// fast and then levelling off (the dark bottom of a vignetted image),
+/// crossed just above the seed rows by a strip of grey tape 16 rows
+/// tall, half the rows a 2 cm obstacle would span there. A track
+/// coasting over the tape along the steep trend it learnt below would
+/// predict a floor far brighter than the one above it and never find
+/// the floor again (every column then found the tape an obstacle).
+/// Coasting, the trend fades at the rate it is learnt, so the floor
+/// above the tape is floor.
+#[test]
+fn tape_where_the_floor_levels_off_is_floor() {
+    let mut img = image::RgbImage::from_fn(320, 240, |_, v| {
+        let l = 100.0 - 50.0 * (-((239 - v) as f32) / 10.0).exp();
+        image::Rgb([l as u8, (l * 0.93) as u8, (l * 0.85) as u8])
+    });
+    let tape = 207..223;
+    for u in 0..320 {
+        for v in tape.clone() {
+            img.put_pixel(u, v, image::Rgb([150, 150, 150]));
+        }
+    }
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    let run = ex.run_rows[(tape.end as usize - 1) * 320 + 160];
+    assert!(run as usize >= 2 * tape.len(), "{run}");
+    let found = obstacle_columns(&img);
+    assert!(
+        found.is_empty(),
+        "{} columns, first {:?}",
+        found.len(),
+        found.first()
+    );
+}
+
+/// Just above a bright speck on a grained floor, a step of brightness
+/// alone looks like a smooth wall's base when the rows below are taken
+/// as the floor: the speck is level and far from the floor above, and
+/// its edges are more "texture" than the grain. The rows below must be
+/// the floor the scan followed up to the step; a speck is not.
+#[test]
+fn the_floor_below_a_brightness_step_is_the_floor_followed() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let floor = [100.0f32, 93.0, 85.0];
+    let mut img = image::RgbImage::from_fn(320, 240, |_, _| {
+        let g = rng.random_range(-4.0f32..4.0);
+        image::Rgb(floor.map(|c| (c + g).round() as u8))
+    });
+    let speck = [150u8; 3];
+    for u in 150..162 {
+        for v in 205..220 {
+            img.put_pixel(u, v, image::Rgb(speck));
+        }
+    }
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    let px = img.as_raw();
+    let classifier = ex.classifier(noise_sigma(px, 320, 240));
+    let both = classifier.scaled_both(ex.config.edge_fraction);
+    let grey_sigma = grey_noise_sigma(px, 320, 240);
+    let test = (&both, ex.config.texture_ratio);
+    let speck_level = speck.map(|c| c as f32);
+    // Following the floor, the step is no wall's base.
+    assert!(!ex.bright_edge_confirms(px, 156, 204, test, grey_sigma, (&floor, &classifier)));
+    // Had the scan followed the speck, every other test would have
+    // passed: the rows below are what rejects it.
+    assert!(ex.bright_edge_confirms(px, 156, 204, test, grey_sigma, (&speck_level, &classifier)));
+}
+
+/// A dark floor in plain noise (σ 2.5 levels a channel at a level of
+/// 14, as in a dim field's bottom rows), brightening upwards: a seed's
+/// slope fitted through its own six rows is off by 1.5 σ in some of
+/// the 320 columns of every image, and a track coasting along it would
+/// leave the floor for good. With the neighbours' slopes pooled, every
+/// column sees the floor up to its top.
+#[test]
+fn noisy_dark_floors_are_floor() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    for _ in 0..8 {
+        let mut gauss = || {
+            // Sum of twelve uniforms: near-normal, unit variance.
+            (0..12).map(|_| rng.random::<f32>()).sum::<f32>() - 6.0
+        };
+        let img = image::RgbImage::from_fn(320, 240, |_, v| {
+            let level = 14.0 * (1.0 + 0.004 * (239 - v) as f32);
+            image::Rgb(std::array::from_fn(|c| {
+                (level * [1.0, 1.05, 1.15][c] + 2.5 * gauss())
+                    .round()
+                    .clamp(0.0, 255.0) as u8
+            }))
+        });
+        let b = ex.boundaries(&img).unwrap();
+        let found: Vec<_> = b
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !matches!(c, ColumnBoundary::Clear { .. }))
+            .collect();
+        assert!(found.is_empty(), "{found:?}");
+    }
+}
+
+#[test]
+fn specks_in_the_seed_rows_are_floor() {
+    // The floor of `specks_and_gradients_are_floor`, with bright specks
+    // 3 to 6 pixels wide in the bottom rows, where each column seeds
+    // its floor, one at the image's edge.
+    let mut img = brightening_floor();
+    for (cu, cv, side) in [(60u32, 235u32, 4u32), (150, 234, 6), (230, 236, 3), (316, 235, 4)] {
+        for du in 0..side {
+            for dv in 0..side.min(240 - cv) {
+                img.put_pixel(cu + du, cv + dv, image::Rgb([240, 240, 240]));
+            }
+        }
+    }
+    let found = obstacle_columns(&img);
+    assert!(found.is_empty(), "obstacles in columns {found:?}");
+}
+
+/// Lint close to the camera: a flat bright blob 24 columns wide and 12
+/// rows tall across the bottom rows, as wide as the seeds' nearest
+/// neighbours' reach and more, so that those neighbours lie on it too.
+/// Only seeds farther out on both sides show the floor; without them the
+/// blob was taken for the floor and the floor above it for an obstacle.
+#[test]
+fn wide_specks_in_the_seed_rows_are_floor() {
+    let mut img = brightening_floor();
+    for u in 140..164 {
+        for v in 228..240 {
+            img.put_pixel(u, v, image::Rgb([200, 200, 195]));
+        }
+    }
+    let found = obstacle_columns(&img);
+    assert!(found.is_empty(), "obstacles in columns {found:?}");
+}
+
+/// The lint of `wide_specks_in_the_seed_rows_are_floor` near the right
+/// edge of a dark floor that also darkens towards that corner
+/// (vignetting), by more than the brightness tolerance between the
+/// seeds that far out on either side: they disagree with each other,
+/// but the median seed of the window between them is the floor's.
+#[test]
+fn wide_specks_in_a_vignetted_corner_are_floor() {
+    let mut img = image::RgbImage::from_fn(320, 240, |u, v| {
+        let val = (40.0 - 0.1 * u as f32) * (1.0 + 0.01 * (239 - v) as f32);
+        image::Rgb([val as u8, val as u8, (val * 1.1) as u8])
+    });
+    for u in 250..274 {
+        for v in 228..240 {
+            img.put_pixel(u, v, image::Rgb([200, 200, 195]));
+        }
+    }
+    let found = obstacle_columns(&img);
+    assert!(found.is_empty(), "obstacles in columns {found:?}");
+}
+
+#[test]
+fn uniform_images_give_empty_profiles_and_wrong_sizes_errors() {
+    let ex = RopExtractor::new(&cam(), 0.9, VisionConfig::default());
+    for val in [0u8, 128, 255] {
+        let rop = ex
+            .rop(&image::RgbImage::from_pixel(320, 240, image::Rgb([val; 3])))
+            .unwrap();
+        assert!((0..rop.len()).all(|i| rop.reliable(i).is_none() && rop.seen(i)));
+    }
+    assert!(matches!(
+        ex.rop(&image::RgbImage::new(10, 10)),
+        Err(VisionError::WrongSize { .. })
+    ));
+    assert!(RopExtractor::try_new(
+        &cam(),
+        0.9,
+        VisionConfig {
+            bin_width_rad: 0.0,
+            ..Default::default()
+        }
+    )
+    .is_err());
+}
+
+#[test]
+fn fine_bins_are_filled_between_columns() {
+    let cfg = VisionConfig {
+        bin_width_rad: 0.2f64.to_radians(),
+        ..Default::default()
+    };
+    let ex = RopExtractor::new(&cam(), 0.9, cfg);
+    let rop = ex.rop(&wall_image(40.0)).unwrap();
+    let lo = rop.bin_of(-25f64.to_radians()).unwrap();
+    let hi = rop.bin_of(25f64.to_radians()).unwrap();
+    assert!((lo..=hi).all(|i| rop.reliable(i).is_some()));
+}
