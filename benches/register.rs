@@ -14,9 +14,8 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pirouette::geom::Pose2;
 use pirouette::grid::{GridConfig, OccupancyGrid};
 use pirouette::io::{Dataset, Motion};
-use pirouette::mapping::{build_map, MapConfig};
-use pirouette::pipeline;
-use pirouette::profile::sweep::SweepConfig;
+use pirouette::mapping::build_map;
+use pirouette::pipeline::{self, PipelineConfig};
 use pirouette::register::{
     endpoints, register, thin_points, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Search,
 };
@@ -47,21 +46,17 @@ fn vision() -> VisionConfig {
 fn benches(c: &mut Criterion) {
     let f = fixture();
     let ds = &f.ds;
-    let pipeline::SweepProfiles {
-        extractor,
-        rops,
-        compared,
-        matched,
-    } = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
-    let blind_m = extractor.table().blind_range().expect("floor");
-    let (sweeps, sweep_config) = pipeline::sweeps(ds, &extractor, &rops, &matched, &SweepConfig::default());
+    let pipeline_config = PipelineConfig {
+        vision: vision(),
+        ..PipelineConfig::default()
+    };
+    let swept = pipeline::sweep_dataset(ds, &pipeline_config, &|_| {}).expect("sweeps");
+    let (blind_m, sweeps) = (swept.blind_m, &swept.sweeps);
+    let rops: Vec<_> = swept.frames.iter().map(|f| f.rop.clone()).collect();
     let truth = ds.truth_poses().expect("truth");
     let origin = truth[0].inverse();
     let truth: Vec<Pose2> = truth.iter().map(|t| origin * *t).collect();
-    let config = MapConfig {
-        sweep: sweep_config,
-        ..MapConfig::default()
-    };
+    let config = swept.map_config(&pipeline_config);
 
     // The map of the first sweep, from its true poses.
     let mut grid = OccupancyGrid::new(GridConfig::default()).expect("grid");
@@ -150,39 +145,10 @@ fn benches(c: &mut Criterion) {
     group.sample_size(10);
     group.throughput(Throughput::Elements(ds.manifest.frames.len() as u64));
     group.bench_function("images_to_map", |b| {
-        b.iter(|| {
-            let p = pipeline::sweep_profiles(ds, None, vision(), || {}).expect("profiles");
-            let (sweeps, sweep) =
-                pipeline::sweeps(ds, &p.extractor, &p.rops, &p.matched, &SweepConfig::default());
-            let config = MapConfig {
-                sweep,
-                ..config.clone()
-            };
-            build_map(
-                &ds.manifest.frames,
-                &p.rops,
-                &p.compared,
-                &sweeps,
-                blind_m,
-                &config,
-                || {},
-            )
-            .expect("map")
-        })
+        b.iter(|| pipeline::map_dataset(ds, &pipeline_config, &|_| {}).expect("map"))
     });
     group.bench_function("build_map_only", |b| {
-        b.iter(|| {
-            build_map(
-                &ds.manifest.frames,
-                &rops,
-                &compared,
-                &sweeps,
-                blind_m,
-                &config,
-                || {},
-            )
-            .expect("map")
-        })
+        b.iter(|| build_map(&swept.frames, sweeps, blind_m, &config, || {}).expect("map"))
     });
     group.finish();
 }

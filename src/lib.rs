@@ -12,6 +12,7 @@
 //! - [`io`]: the `rop-dataset/1` format and other files;
 //! - [`vision`]: floor segmentation and ROPs from images;
 //! - [`sim`]: the renderer of scenes into datasets;
+//! - [`frame`]: the back end's sensor-neutral input;
 //! - [`pipeline`]: whole-dataset runs; [`mapping`]: maps of datasets;
 //!   [`eval`]: scores against truth.
 //!
@@ -35,6 +36,7 @@ pub use pirouette_vision as vision;
 
 pub mod camera_report;
 pub mod eval;
+pub mod frame;
 pub mod mapping;
 pub mod pipeline;
 pub mod plot;

@@ -7,6 +7,7 @@
 //! ([`sweep_profiles`], [`sweeps`], [`crate::mapping::build_map`]) are
 //! public for benchmarks and for callers that need one stage alone.
 
+use crate::frame::{camera_frames, camera_motions, Frame};
 use crate::mapping::{build_map, check_extent, MapConfig, MapRun};
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
@@ -66,11 +67,8 @@ pub enum Stage {
 pub struct Swept {
     /// The extractor of the map's profiles (camera tables, settings).
     pub extractor: RopExtractor,
-    /// One profile per frame, as the settings give it: for the grid.
-    pub rops: Vec<Rop>,
-    /// One profile per frame for comparing views (see
-    /// [`SweepProfiles::compared`]).
-    pub compared: Vec<Rop>,
+    /// The frames, in capture order, with their profiles.
+    pub frames: Vec<Frame>,
     /// The sweeps, their turns verified.
     pub sweeps: Vec<DatasetSweep>,
     /// The sweep settings they were assembled with (the pivot measured).
@@ -121,10 +119,11 @@ pub fn sweep_dataset(
         .table()
         .blind_range()
         .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
+    // The back end's input: each frame's profiles and motion.
+    let frames = camera_frames(ds, rops, compared, matched);
     Ok(Swept {
         extractor,
-        rops,
-        compared,
+        frames,
         sweeps,
         sweep_config,
         blind_m,
@@ -140,7 +139,7 @@ pub fn map_dataset(
     let name = || ds.manifest_path().display().to_string();
     // A route whose commands alone make too large a map, before any image.
     check_extent(
-        &ds.manifest.frames,
+        &camera_motions(ds),
         ds.manifest.max_range * config.map.far_reach,
         &config.map.grid,
     )
@@ -165,15 +164,9 @@ pub fn map_swept(
     config: &MapConfig,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<MapRun> {
-    build_map(
-        &ds.manifest.frames,
-        &swept.rops,
-        &swept.compared,
-        &swept.sweeps,
-        swept.blind_m,
-        config,
-        || progress(Stage::Placed),
-    )
+    build_map(&swept.frames, &swept.sweeps, swept.blind_m, config, || {
+        progress(Stage::Placed)
+    })
     .with_context(|| ds.manifest_path().display().to_string())
 }
 

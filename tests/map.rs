@@ -7,6 +7,7 @@ use pirouette::grid::RosMap;
 use pirouette::io::{map_names, read_poses, read_ros_map, Dataset};
 use pirouette::mapping::map_with_poses;
 use pirouette::pipeline::{self, PipelineConfig};
+use pirouette::profile::Rop;
 use std::path::Path;
 
 /// Maps `dataset` into `out` and evaluates it, returning the report.
@@ -142,15 +143,19 @@ fn faint_steps_add_walls_to_the_grid_and_leave_registration_alone() {
     let config = swept.map_config(&PipelineConfig::default());
     let with = pipeline::map_swept(&ds, &swept, &config, &|_| {}).unwrap();
     // The same run with the compared profiles in the grid too.
-    let rops = std::mem::replace(&mut swept.rops, swept.compared.clone());
+    let rops: Vec<Rop> = swept.frames.iter().map(|f| f.rop.clone()).collect();
+    let compared: Vec<Rop> = swept.frames.iter().map(|f| f.compared.clone()).collect();
+    for f in &mut swept.frames {
+        f.rop = f.compared.clone();
+    }
     let without = pipeline::map_swept(&ds, &swept, &config, &|_| {}).unwrap();
     assert_eq!(with.frame_poses, without.frame_poses);
-    let (blind_m, compared) = (swept.blind_m, &swept.compared);
+    let blind_m = swept.blind_m;
     let world = ds.world().unwrap().expect("a rendered scene");
     let truth = truth_in_map_frame(&ds).unwrap();
     let first = ds.truth_poses().expect("true poses")[0];
     // Occupied cells within 2 cm of a wall, and the others.
-    let on_walls = |rops: &[pirouette::profile::Rop]| {
+    let on_walls = |rops: &[Rop]| {
         let grid = map_with_poses(rops, &truth, blind_m, &config.grid).unwrap();
         let cells = occupied_centres(&RosMap::from_grid(&grid));
         let on = cells
@@ -162,7 +167,7 @@ fn faint_steps_add_walls_to_the_grid_and_leave_registration_alone() {
             .count();
         (on, cells.len() - on)
     };
-    let ((on_with, off_with), (on_without, off_without)) = (on_walls(&rops), on_walls(compared));
+    let ((on_with, off_with), (on_without, off_without)) = (on_walls(&rops), on_walls(&compared));
     eprintln!("on walls {on_with} and {on_without}, elsewhere {off_with} and {off_without}");
     assert!(
         on_with > on_without,

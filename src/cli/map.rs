@@ -189,7 +189,7 @@ pub fn evaluate(
         ds,
         dir,
         MapInputs {
-            rops: &swept.rops,
+            frames: &swept.frames,
             blind_m: swept.blind_m,
             span_rad,
             grid: &config.grid,

@@ -4,7 +4,6 @@ use anyhow::{Context, Result};
 use pirouette_geom::{wrap_angle, Point2, Pose2};
 use pirouette_grid::{GridConfig, RosMap, OCCUPIED};
 use pirouette_io::{map_names, read_poses, read_ros_map, Dataset, World};
-use pirouette_profile::Rop;
 use serde::Serialize;
 use std::collections::HashSet;
 use std::path::Path;
@@ -114,7 +113,7 @@ pub fn true_pivot(sweep_of: &[u32], truth: &[Pose2]) -> Option<[f64; 2]> {
 #[derive(Debug, Clone, Copy)]
 pub struct MapInputs<'a> {
     /// One profile per frame.
-    pub rops: &'a [Rop],
+    pub frames: &'a [crate::frame::Frame],
     /// The camera's blind distance, metres.
     pub blind_m: f64,
     /// The bearings the camera sees, radians.
@@ -175,7 +174,10 @@ pub fn evaluate_map_dir(
         })
         .collect::<Result<_>>()?;
     let trajectory = trajectory_scores(&estimated, &truth);
-    let commanded = trajectory_scores(&crate::mapping::dead_reckoning(&ds.manifest.frames), &truth);
+    let commanded = trajectory_scores(
+        &crate::mapping::dead_reckoning(&crate::frame::camera_motions(ds)),
+        &truth,
+    );
     let mut sweeps = Vec::new();
     let mut seen = HashSet::new();
     for (i, f) in ds.manifest.frames.iter().enumerate() {
@@ -215,7 +217,12 @@ pub fn evaluate_map_dir(
         .map(|p| world_truth[0].transform_point(align.transform_point(p)))
         .collect();
     let map_aligned = map_quality(&aligned, &world, &visible, tolerance_m);
-    let true_grid = crate::mapping::map_with_poses(inputs.rops, &truth, inputs.blind_m, inputs.grid)?;
+    let true_grid = crate::mapping::map_with_poses(
+        inputs.frames.iter().map(|f| &f.rop),
+        &truth,
+        inputs.blind_m,
+        inputs.grid,
+    )?;
     let true_pose_map = map_quality(
         &to_world(&RosMap::from_grid(&true_grid)),
         &world,

@@ -2,10 +2,10 @@
 //! measured them, anchored by each frame's own registration.
 
 use super::{MapConfig, Placed};
+use crate::frame::Frame;
 use crate::pipeline::DatasetSweep;
 use anyhow::Result;
 use pirouette_geom::Point2;
-use pirouette_profile::Rop;
 use pirouette_register::{register, LikelihoodField, PosePrior};
 use rayon::prelude::*;
 
@@ -30,7 +30,7 @@ const TURN_SHIFT_M: f64 = 0.002;
 pub(super) fn chain_headings<'f>(
     placed: &mut Placed,
     sweep: &DatasetSweep,
-    rops: &[Rop],
+    input: &[Frame],
     field: impl Fn(usize) -> &'f LikelihoodField + Sync,
     config: &MapConfig,
 ) -> Result<()> {
@@ -57,7 +57,7 @@ pub(super) fn chain_headings<'f>(
         let heading = cur[k];
         let to_frame = placed_now.rel(k).inverse();
         let pts: Vec<Point2> = placed_now
-            .points(sweep, &[k], rops, config)
+            .points(sweep, &[k], input, config)
             .into_iter()
             .map(|p| to_frame.transform_point(p))
             .collect();

@@ -2,6 +2,7 @@
 //! registration matches against.
 
 use super::{far_reach_m, MapConfig, Placed};
+use crate::frame::Frame;
 use crate::pipeline::DatasetSweep;
 use anyhow::Result;
 use pirouette_geom::{Point2, Pose2};
@@ -43,13 +44,13 @@ impl Seen {
 /// What `frames` (manifest index and pose) saw.
 pub(super) fn seen_by(
     frames: &[(usize, Pose2)],
-    rops: &[Rop],
+    input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<Seen> {
     let mut seen = Seen::new(config)?;
     for &(i, pose) in frames {
-        seen.add(&rops[i], pose, blind_m, config);
+        seen.add(&input[i].compared, pose, blind_m, config);
     }
     Ok(seen)
 }
@@ -93,11 +94,11 @@ pub(super) fn field_in(seen: &Seen, region: Option<(Point2, Point2)>, config: &M
 /// The likelihood field of what `frames` saw.
 pub(super) fn field_of(
     frames: &[(usize, Pose2)],
-    rops: &[Rop],
+    input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<LikelihoodField> {
-    Ok(field_in(&seen_by(frames, rops, blind_m, config)?, None, config))
+    Ok(field_in(&seen_by(frames, input, blind_m, config)?, None, config))
 }
 
 /// For each frame of sweep `placed`, the field of what `others` saw plus
@@ -107,7 +108,7 @@ pub(super) fn frame_fields(
     placed: &Placed,
     sweep: &DatasetSweep,
     others: &Seen,
-    rops: &[Rop],
+    input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
 ) -> Vec<LikelihoodField> {
@@ -115,7 +116,8 @@ pub(super) fn frame_fields(
     let c = placed.pose.translation();
     // Points lie within the registration's reach; a frame turns about the
     // pivot, within a centimetre of the first frame's position.
-    let reach = far_reach_m(&rops[sweep.frames[0]], config).max(rops[sweep.frames[0]].max_range_m as f64)
+    let reach = far_reach_m(&input[sweep.frames[0]].compared, config)
+        .max(input[sweep.frames[0]].compared.max_range_m as f64)
         + FRAME_FIELD_MARGIN_M;
     let region = (
         Point2::new(c.x - reach, c.y - reach),
@@ -127,7 +129,12 @@ pub(super) fn frame_fields(
         .map(|k| {
             let mut seen = others.clone();
             for j in (0..n).filter(|&j| j != k) {
-                seen.add(&rops[sweep.frames[j]], placed.frame_pose(j), blind_m, config);
+                seen.add(
+                    &input[sweep.frames[j]].compared,
+                    placed.frame_pose(j),
+                    blind_m,
+                    config,
+                );
             }
             field_in(&seen, Some(region), config)
         })

@@ -1,12 +1,13 @@
 //! Maps of whole datasets: sweeps registered one after another against the
 //! map built so far, then fused into one occupancy grid.
 
+use crate::frame::Frame;
 use crate::pipeline::DatasetSweep;
 use anyhow::{bail, Result};
 use nalgebra::Matrix3;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::{GridConfig, OccupancyGrid};
-use pirouette_io::{FrameSpec, Motion};
+use pirouette_io::Motion;
 use pirouette_profile::sweep::SweepConfig;
 use pirouette_profile::Rop;
 use pirouette_register::{
@@ -214,14 +215,14 @@ impl Placed {
         &self,
         sweep: &DatasetSweep,
         members: &[usize],
-        rops: &[Rop],
+        input: &[Frame],
         config: &MapConfig,
     ) -> Vec<Point2> {
         members
             .iter()
             .flat_map(|&k| {
                 let rel = self.rel(k);
-                frame_points(&rops[sweep.frames[k]], config)
+                frame_points(&input[sweep.frames[k]].compared, config)
                     .into_iter()
                     .map(move |p| rel.transform_point(p))
             })
@@ -287,7 +288,7 @@ const REFINE_SHIFT_M: f64 = 0.05;
 fn place_sweep(
     placed: &mut Placed,
     sweep: &DatasetSweep,
-    rops: &[Rop],
+    input: &[Frame],
     field: &LikelihoodField,
     prior: &PosePrior,
     config: &MapConfig,
@@ -296,14 +297,14 @@ fn place_sweep(
     for _ in 0..2 {
         let reg = register(
             field,
-            &placed.points(sweep, &all, rops, config),
+            &placed.points(sweep, &all, input, config),
             prior,
             &config.register,
         )?;
         placed.pose = reg.pose;
         placed.covariance = reg.covariance;
         placed.registration = Some(reg);
-        chain_headings(placed, sweep, rops, |_| field, config)?;
+        chain_headings(placed, sweep, input, |_| field, config)?;
     }
     Ok(())
 }
@@ -318,7 +319,7 @@ fn place_sweep(
 fn refine_pass(
     placed: &mut [Placed],
     sweeps: &[DatasetSweep],
-    rops: &[Rop],
+    input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<()> {
@@ -335,7 +336,7 @@ fn refine_pass(
                 (0..other.frames.len()).map(move |k| (other.frames[k], p.frame_pose(k)))
             })
             .collect();
-        let others = seen_by(&others, rops, blind_m, config)?;
+        let others = seen_by(&others, input, blind_m, config)?;
         if sweeps.len() > 1 {
             let field = field_in(&others, None, config);
             // Every sweep may move, the first too (the map frame is set at
@@ -346,12 +347,12 @@ fn refine_pass(
                 sigma_left_m: REFINE_SHIFT_M,
                 sigma_theta_rad: config.sweep.commanded_sigma_rad,
             };
-            place_sweep(&mut placed[s], sweep, rops, &field, &prior, config)?;
+            place_sweep(&mut placed[s], sweep, input, &field, &prior, config)?;
         }
         // Each frame against the others and the rest of its own sweep (for
         // a single pirouette, its own sweep alone).
-        let fields = frame_fields(&placed[s], sweep, &others, rops, blind_m, config);
-        chain_headings(&mut placed[s], sweep, rops, |k| &fields[k], config)?;
+        let fields = frame_fields(&placed[s], sweep, &others, input, blind_m, config);
+        chain_headings(&mut placed[s], sweep, input, |k| &fields[k], config)?;
     }
     Ok(())
 }
@@ -383,26 +384,20 @@ fn refine_pass(
 /// map of the others. The map frame is set last: the first frame is
 /// `(0, 0, 0)`.
 ///
-/// Registration compares `compared`, the grid fuses `rops` (one profile
-/// per frame each; see [`crate::pipeline::SweepProfiles`]).
+/// Registration compares each frame's `compared` profile; the grid fuses
+/// its `rop` ([`Frame`]).
 pub fn build_map(
-    frames: &[FrameSpec],
-    rops: &[Rop],
-    compared: &[Rop],
+    input: &[Frame],
     sweeps: &[DatasetSweep],
     blind_m: f64,
     config: &MapConfig,
     progress: impl Fn(),
 ) -> Result<MapRun> {
-    let reach = rops.iter().map(|r| r.max_range_m as f64).fold(0.0, f64::max);
-    check_extent(frames, reach, &config.grid)?;
-    if rops.len() != frames.len() || compared.len() != frames.len() {
-        bail!(
-            "{} and {} profiles for {} frames",
-            rops.len(),
-            compared.len(),
-            frames.len()
-        );
+    let reach = input.iter().map(|f| f.rop.max_range_m as f64).fold(0.0, f64::max);
+    let motions: Vec<Option<Motion>> = input.iter().map(|f| f.motion).collect();
+    check_extent(&motions, reach, &config.grid)?;
+    if let Some(&i) = sweeps.iter().flat_map(|s| &s.frames).find(|&&i| i >= input.len()) {
+        bail!("a sweep names frame {i} of {}", input.len());
     }
     let mut placed: Vec<Placed> = Vec::with_capacity(sweeps.len());
     let mut inserted: Vec<(usize, Pose2)> = Vec::new();
@@ -410,11 +405,11 @@ pub fn build_map(
         let state = match placed.last() {
             None => Placed::new(sweep, Pose2::IDENTITY, config.sweep.matching.pivot_m),
             Some(prev) => {
-                let prior = forward_prior(&sweeps[s - 1], prev, frames[sweep.frames[0]].motion, config);
+                let prior = forward_prior(&sweeps[s - 1], prev, input[sweep.frames[0]].motion, config);
                 let mut state = Placed::new(sweep, prior.mean, config.sweep.matching.pivot_m);
                 state.prior = Some(prior);
-                let field = field_of(&inserted, compared, blind_m, config)?;
-                place_sweep(&mut state, sweep, compared, &field, &prior, config)?;
+                let field = field_of(&inserted, input, blind_m, config)?;
+                place_sweep(&mut state, sweep, input, &field, &prior, config)?;
                 state
             }
         };
@@ -427,16 +422,16 @@ pub fn build_map(
 
     // Each sweep against the map of all the others.
     for _pass in 0..REFINE_PASSES {
-        refine_pass(&mut placed, sweeps, compared, blind_m, config)?;
+        refine_pass(&mut placed, sweeps, input, blind_m, config)?;
         progress();
     }
     // The sweeps moved together to agree with every pair's match, then
     // each placed once more against that map.
     if sweeps.len() > 1 {
-        let mut edges = sweep_edges(&placed, sweeps, compared, blind_m, config)?;
-        edges.extend(motion_edges(&placed, sweeps, frames, config));
+        let mut edges = sweep_edges(&placed, sweeps, input, blind_m, config)?;
+        edges.extend(motion_edges(&placed, sweeps, input, config));
         adjust_sweeps(&mut placed, edges);
-        refine_pass(&mut placed, sweeps, compared, blind_m, config)?;
+        refine_pass(&mut placed, sweeps, input, blind_m, config)?;
     }
     progress();
 
@@ -461,7 +456,7 @@ pub fn build_map(
     }
 
     let mut grid = OccupancyGrid::new(config.grid.clone())?;
-    let mut frame_poses = vec![Pose2::IDENTITY; frames.len()];
+    let mut frame_poses = vec![Pose2::IDENTITY; input.len()];
     let mut out = Vec::with_capacity(sweeps.len());
     for (s, (sweep, p)) in sweeps.iter().zip(&placed).enumerate() {
         for (k, &i) in sweep.frames.iter().enumerate() {
@@ -471,7 +466,7 @@ pub fn build_map(
             } else {
                 p.frame_pose(k)
             };
-            grid.insert_profile(&frame_poses[i], &rops[i], blind_m);
+            grid.insert_profile(&frame_poses[i], &input[i].rop, blind_m);
         }
         if grid.overflowed() {
             bail!(
@@ -508,7 +503,7 @@ const PAIR_SHIFT_M: f64 = 0.05;
 fn sweep_edges(
     placed: &[Placed],
     sweeps: &[DatasetSweep],
-    rops: &[Rop],
+    input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
 ) -> Result<Vec<graph::Edge>> {
@@ -519,17 +514,17 @@ fn sweep_edges(
             let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
                 .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
                 .collect();
-            let seen = seen_by(&frames, rops, blind_m, config)?;
+            let seen = seen_by(&frames, input, blind_m, config)?;
             Ok((
                 field_in(&seen, None, config),
-                placed[s].points(&sweeps[s], &all(s), rops, config),
+                placed[s].points(&sweeps[s], &all(s), input, config),
             ))
         })
         .collect::<Result<_>>()?;
     // Sweeps farther apart than twice the registration's reach see nothing
     // in common.
     let reach = |s: usize| {
-        let rop = &rops[sweeps[s].frames[0]];
+        let rop = &input[sweeps[s].frames[0]].compared;
         far_reach_m(rop, config).max(rop.max_range_m as f64)
     };
     let near = |i: usize, j: usize| {
@@ -567,7 +562,7 @@ fn sweep_edges(
 fn motion_edges(
     placed: &[Placed],
     sweeps: &[DatasetSweep],
-    frames: &[FrameSpec],
+    input: &[Frame],
     config: &MapConfig,
 ) -> Vec<graph::Edge> {
     (1..sweeps.len())
@@ -575,7 +570,7 @@ fn motion_edges(
             let prev = &placed[s - 1];
             let (last, fallback_var) = last_frame(&sweeps[s - 1], prev, config);
             let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
-            let distance = forward_distance(frames[sweeps[s].frames[0]].motion);
+            let distance = forward_distance(input[sweeps[s].frames[0]].motion);
             let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
             graph::Edge {
                 i: s - 1,
@@ -640,9 +635,9 @@ fn forward_distance(motion: Option<Motion>) -> f64 {
 /// grid beyond [`GridConfig::max_cells`] (each sweep may still move by up
 /// to the registration window, which the final grid's own check catches).
 /// `reach_m` is how far a profile reaches (the soft range limit).
-pub fn check_extent(frames: &[FrameSpec], reach_m: f64, grid: &GridConfig) -> Result<()> {
+pub fn check_extent(motions: &[Option<Motion>], reach_m: f64, grid: &GridConfig) -> Result<()> {
     let reach = reach_m;
-    let poses = dead_reckoning(frames);
+    let poses = dead_reckoning(motions);
     let (lo, hi) = poses
         .iter()
         .fold(((f64::MAX, f64::MAX), (f64::MIN, f64::MIN)), |(lo, hi), p| {
@@ -667,26 +662,33 @@ pub fn check_extent(frames: &[FrameSpec], reach_m: f64, grid: &GridConfig) -> Re
 
 /// A grid of the profiles seen from given poses (the map a perfect
 /// registration would make).
-pub fn map_with_poses(
-    rops: &[Rop],
+pub fn map_with_poses<'r>(
+    rops: impl IntoIterator<Item = &'r Rop>,
     poses: &[Pose2],
     blind_m: f64,
     config: &GridConfig,
 ) -> Result<OccupancyGrid> {
     let mut grid = OccupancyGrid::new(config.clone())?;
-    for (rop, pose) in rops.iter().zip(poses) {
+    for (rop, pose) in rops.into_iter().zip(poses) {
         grid.insert_profile(pose, rop, blind_m);
+    }
+    if grid.overflowed() {
+        bail!(
+            "the map of the given poses is beyond the budget of {} million cells",
+            config.max_cells / 1_000_000
+        );
     }
     Ok(grid)
 }
 
-/// The trajectory the commands alone predict, from `(0, 0, 0)`.
-pub fn dead_reckoning(frames: &[FrameSpec]) -> Vec<Pose2> {
+/// The trajectory the commands alone predict, from `(0, 0, 0)`: one pose
+/// per frame, from each frame's motion.
+pub fn dead_reckoning(motions: &[Option<Motion>]) -> Vec<Pose2> {
     let mut pose = Pose2::IDENTITY;
-    frames
+    motions
         .iter()
-        .map(|f| {
-            match f.motion {
+        .map(|&motion| {
+            match motion {
                 Some(Motion::Turn { turn_deg }) => pose = pose * Pose2::new(0.0, 0.0, turn_deg.to_radians()),
                 Some(Motion::Forward { forward }) => pose = pose * Pose2::new(forward, 0.0, 0.0),
                 None => {}
@@ -714,19 +716,13 @@ mod tests {
 
     #[test]
     fn dead_reckoning_follows_the_commands() {
-        let frame = |motion| FrameSpec {
-            image: String::new(),
-            sweep: 0,
-            motion,
-            truth: None,
-        };
-        let frames = [
-            frame(None),
-            frame(Some(Motion::Turn { turn_deg: 90.0 })),
-            frame(Some(Motion::Forward { forward: 0.5 })),
-            frame(Some(Motion::Turn { turn_deg: -45.0 })),
+        let motions = [
+            None,
+            Some(Motion::Turn { turn_deg: 90.0 }),
+            Some(Motion::Forward { forward: 0.5 }),
+            Some(Motion::Turn { turn_deg: -45.0 }),
         ];
-        let poses = dead_reckoning(&frames);
+        let poses = dead_reckoning(&motions);
         assert_eq!(poses[0], Pose2::IDENTITY);
         assert!((poses[2].x).abs() < 1e-12 && (poses[2].y - 0.5).abs() < 1e-12);
         assert!((poses[3].theta - 45f64.to_radians()).abs() < 1e-12);
