@@ -42,6 +42,8 @@ fn map_folder_holds_every_file_in_the_contract() {
     let report = map_and_eval(&root, &out);
     // ROS map: trinary P5 and its YAML.
     let ros = read_ros_map(&out.join(map_names::YAML)).unwrap();
+    let yaml = std::fs::read_to_string(out.join(map_names::YAML)).unwrap();
+    assert!(yaml.lines().any(|l| l == "mode: trinary"), "{yaml}");
     assert!(ros.pixels.iter().all(|p| [0u8, 205, 254].contains(p)));
     assert!(ros.pixels.contains(&0) && ros.pixels.contains(&254));
     let pgm = std::fs::read(out.join(map_names::PGM)).unwrap();

@@ -136,7 +136,9 @@ pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
         .filter(|f| !matches!(f.motion, Some(Motion::Turn { .. })))
         .count();
     let profile = super::progress(ds.manifest.frames.len(), "profile");
-    let register = super::progress(progress_steps(sweeps), "register");
+    // One step per sweep placed, per refinement pass and for the joint
+    // adjustment: counted as steps, not sweeps.
+    let register = super::progress(progress_steps(sweeps), "map steps");
     register.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     let mapped = pipeline::map_dataset(ds, &config, &|stage| match stage {
         Stage::Profiled => profile.inc(1),

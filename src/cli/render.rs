@@ -44,9 +44,15 @@ fn load_scene(name: &str) -> Result<Scene> {
 }
 
 fn render_with_progress(scene: &Scene, seed: u64, out: &Path) -> Result<Dataset> {
+    // Drawn once the renderer has said how many frames there are (not
+    // as "0/0" before).
     let bar = super::progress(0, "render");
+    bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     render_dataset(scene, seed, out, |done, total| {
-        bar.set_length(total as u64);
+        if bar.length() != Some(total as u64) {
+            bar.set_length(total as u64);
+            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
         bar.set_position(done as u64);
     })
     .with_context(|| format!("rendering into {}", out.display()))?;

@@ -116,7 +116,8 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         let commanded = pipeline::commanded_turns(&ds, &s.frames);
         for (k, &i) in s.frames.iter().enumerate() {
             let f = &ds.manifest.frames[i];
-            let commanded = commanded[k].map(f64::to_degrees);
+            // To a microdegree: the command's own digits, not binary noise.
+            let commanded = commanded[k].map(|c| (c.to_degrees() * 1e6).round() / 1e6);
             let t = s.sweep.turns[k];
             if a.json {
                 let line = json!({

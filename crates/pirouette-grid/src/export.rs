@@ -85,7 +85,7 @@ impl RosMap {
     /// The YAML file, naming the PGM as `image`.
     pub fn yaml(&self, image: &str) -> String {
         format!(
-            "image: {image}\nresolution: {}\norigin: [{}, {}, 0.0]\nnegate: 0\noccupied_thresh: {}\nfree_thresh: {}\n",
+            "image: {image}\nmode: trinary\nresolution: {}\norigin: [{}, {}, 0.0]\nnegate: 0\noccupied_thresh: {}\nfree_thresh: {}\n",
             self.resolution_m, self.origin_m[0], self.origin_m[1], self.occupied_thresh, self.free_thresh
         )
     }

@@ -140,6 +140,13 @@ pub fn read_ros_map(yaml_path: &Path) -> Result<RosMap, IoError> {
                 }
                 origin = Some([v[0], v[1]]);
             }
+            "mode" if value.trim() != "trinary" => {
+                return Err(bad(format!(
+                    "line {}: mode `{}`: only trinary maps (0 occupied, 254 free, 205 unknown) are read",
+                    n + 1,
+                    value.trim()
+                )))
+            }
             "negate" => negate = number(value)? as i64,
             "occupied_thresh" => occupied_thresh = Some(number(value)?),
             "free_thresh" => free_thresh = Some(number(value)?),
@@ -248,6 +255,10 @@ mod tests {
                 "origin must be",
             ),
             ("image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n", "map.pgm"),
+            (
+                "image: map.pgm\nmode: scale\nresolution: 0.05\norigin: [0, 0, 0]\n",
+                "only trinary maps",
+            ),
         ];
         for (text, expected) in cases {
             std::fs::write(&yaml, text).unwrap();
