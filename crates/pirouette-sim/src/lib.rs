@@ -32,8 +32,7 @@ pub use truth::{nearest_in_view, true_profile, RAYS_PER_BIN};
 
 use pirouette_camera::FloorTable;
 use pirouette_io::{
-    CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
-    FORMAT_VERSION,
+    CameraSpec, Dataset, FrameSpec, Manifest, MountSpec, PinholeSpec, PoseSpec, TruthRop, FORMAT_VERSION,
 };
 use std::path::Path;
 
@@ -73,26 +72,11 @@ pub fn render_dataset(
             view,
         );
         Dataset::write_truth_rop(out, &image_rel, &TruthRop::from_rop(&rop))?;
-        // Written to a micrometre and a microdegree: more digits mean
-        // nothing (and print as 29.999999999999996).
-        let micro = |v: f64| (v * 1e6).round() / 1e6;
-        let truth = PoseSpec::from(f.world_from_robot);
         specs.push(FrameSpec {
             image: image_rel,
             sweep: f.sweep,
-            motion: f.motion.map(|m| match m {
-                Motion::Turn { turn_deg } => Motion::Turn {
-                    turn_deg: micro(turn_deg),
-                },
-                Motion::Forward { forward } => Motion::Forward {
-                    forward: micro(forward),
-                },
-            }),
-            truth: Some(PoseSpec {
-                x: micro(truth.x),
-                y: micro(truth.y),
-                theta_deg: micro(truth.theta_deg),
-            }),
+            motion: f.motion,
+            truth: Some(PoseSpec::from(f.world_from_robot)),
         });
         progress(k + 1, frames.len());
     }
