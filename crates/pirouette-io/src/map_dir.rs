@@ -44,15 +44,17 @@ pub struct PoseRecord {
 }
 
 impl PoseRecord {
-    /// The record of a camera frame.
+    /// The record of a camera frame, to a micrometre and a microdegree
+    /// (more digits are noise, and print as 0.30000000000000004).
     pub fn frame(image: &str, pose: &Pose2) -> Self {
+        let micro = |v: f64| (v * 1e6).round() / 1e6;
         Self {
             image: Some(image.to_owned()),
             scan: None,
             t: None,
-            x: pose.x,
-            y: pose.y,
-            theta_deg: pose.theta_deg(),
+            x: micro(pose.x),
+            y: micro(pose.y),
+            theta_deg: micro(pose.theta_deg()),
         }
     }
 
