@@ -42,7 +42,11 @@ pub const MAX_ELEMENTS: usize = 50_000_000;
 /// not positive definite; an edge joining a vertex to itself.
 pub fn read_g2o(path: &Path) -> Result<G2oGraph, IoError> {
     let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
-    let reader = std::io::BufReader::new(file);
+    parse_g2o(std::io::BufReader::new(file), path)
+}
+
+/// [`read_g2o`] from any reader; `path` names the source in errors.
+pub fn parse_g2o(reader: impl BufRead, path: &Path) -> Result<G2oGraph, IoError> {
     let mut vertices: Vec<(u64, Pose2)> = Vec::new();
     let mut index: HashMap<u64, usize> = HashMap::new();
     let mut edges: Vec<RawEdge> = Vec::new();

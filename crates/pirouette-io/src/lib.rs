@@ -35,6 +35,6 @@ pub use dataset::{
     FORMAT_VERSION,
 };
 pub use error::IoError;
-pub use g2o::{read_g2o, write_g2o, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
+pub use g2o::{parse_g2o, read_g2o, write_g2o, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
 pub use map_dir::{names as map_names, read_poses, read_ros_map, tum, write_map_dir, PoseRecord};
 pub use world::{FootprintHit, Obstacle, World};

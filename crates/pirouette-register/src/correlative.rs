@@ -157,7 +157,7 @@ pub enum Search {
     /// Score every pose: the reference.
     Exhaustive,
     /// Score blocks of poses by an upper bound first and drop those that
-    /// cannot count ([`crate::bound`]).
+    /// cannot count (max-pooled levels of the field bound each block).
     #[default]
     BranchAndBound,
 }
@@ -447,7 +447,7 @@ fn exhaustive(
 }
 
 /// The poses the exhaustive search keeps, found by branch and bound
-/// ([`crate::bound`]): rotations searched from the prior's mean outwards
+/// (the `bound` module): rotations searched from the prior's mean outwards
 /// (in parallel), sharing the best score found so far.
 fn bounded(
     field: &LikelihoodField,
