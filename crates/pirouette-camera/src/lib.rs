@@ -23,6 +23,7 @@
 //! # Ok::<(), &'static str>(())
 //! ```
 #![deny(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod ipm;
 mod pinhole;

@@ -12,6 +12,7 @@
 //! assert!((in_world.x - 1.0).abs() < 1e-12 && (in_world.y - 3.0).abs() < 1e-12);
 //! ```
 #![deny(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod angle;
 mod pose;

@@ -36,6 +36,7 @@
 //! # Ok::<(), pirouette_graph::GraphError>(())
 //! ```
 #![deny(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 // 3 × 3 blocks read most plainly with their row and column indices.
 #![allow(clippy::needless_range_loop)]
 

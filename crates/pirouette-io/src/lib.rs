@@ -21,6 +21,7 @@
 //! # Ok::<(), pirouette_io::IoError>(())
 //! ```
 #![deny(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod atomic;
 mod dataset;

@@ -278,6 +278,7 @@ fn spread_residual(
         // only unverified one.
         if picked || unverified.len() == 1 {
             for &i in &unverified {
+                #[allow(clippy::expect_used, reason = "`unverified` lists turns that are present")]
                 let t = loop_turns[i].as_mut().expect("an unverified turn");
                 (t.fallback, t.evidence) = (false, Evidence::Loop);
             }
@@ -421,6 +422,7 @@ pub fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
         return Rop::empty(-PI, TAU, 0, 1.0);
     };
     let w = first.bin_width_rad;
+    #[allow(clippy::expect_used, reason = "the bin width is an existing profile's")]
     let mut out = Rop::covering(-PI, PI - w, w, first.max_range_m).expect("valid bin width");
     let n = out.len();
     let mut samples: Vec<Vec<(f32, Option<ColourTag>)>> = vec![Vec::new(); n];

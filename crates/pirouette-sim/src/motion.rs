@@ -20,6 +20,7 @@ pub struct PlannedFrame {
     pub world_from_robot: Pose2,
 }
 
+#[allow(clippy::expect_used, reason = "Scene::validate bounds every spread")]
 fn normal(sigma: f64) -> Normal<f64> {
     Normal::new(0.0, sigma.max(0.0)).expect("standard deviation is finite and non-negative")
 }

@@ -222,12 +222,14 @@ impl Renderer {
 
     /// Renders the image seen from `world_from_robot`; `frame` seeds the
     /// sensor noise.
+    #[allow(clippy::expect_used, reason = "the buffer is made for this image size")]
     pub fn render(&self, world_from_robot: &Pose2, frame: u64) -> image::RgbImage {
         let cam = &self.camera;
         let look = &self.scene.look;
         let centre = world_from_robot.transform_point(Point2::new(cam.mount_forward_m, cam.mount_left_m));
         let origin = [centre.x, centre.y, cam.height_m];
         let (s, c) = world_from_robot.theta.sin_cos();
+        #[allow(clippy::expect_used, reason = "Scene::validate bounds noise_sigma")]
         let noise = Normal::new(0.0, look.noise_sigma.max(0.0)).expect("noise sigma is finite");
         const SUB: [(f64, f64); 4] = [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)];
         let row_len = cam.width as usize * 3;

@@ -22,6 +22,15 @@ pub enum SimError {
 /// The names of the built-in scenes, whose files live in `datasets/scenes/`.
 pub const BUILTIN_SCENES: [&str; 3] = ["field-pirouette", "field-multi", "room-multi"];
 
+/// The most waypoints a route may have.
+pub const MAX_WAYPOINTS: usize = 10_000;
+
+/// The most frames a sweep may have.
+pub const MAX_FRAMES_PER_SWEEP: u32 = 360;
+
+/// The most floor specks a scene may scatter.
+pub const MAX_SPECKS: usize = 1_000_000;
+
 /// A scene to render: the world, the camera, how it looks, and the route.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Scene {
@@ -205,6 +214,7 @@ impl Default for MotionErrors {
 
 impl Scene {
     /// A built-in scene by name (see [`BUILTIN_SCENES`]).
+    #[allow(clippy::expect_used, reason = "the built-in scene files are tested")]
     pub fn builtin(name: &str) -> Option<Scene> {
         let text = match name {
             "field-pirouette" => include_str!("../../../datasets/scenes/field-pirouette.json"),
@@ -279,6 +289,38 @@ impl Scene {
         }
         if self.route.waypoints.is_empty() || self.route.frames_per_sweep == 0 {
             return bad("route: at least one waypoint and one frame per sweep");
+        }
+        if self.route.waypoints.len() > MAX_WAYPOINTS || self.route.frames_per_sweep > MAX_FRAMES_PER_SWEEP {
+            return bad(&format!(
+                "route: at most {MAX_WAYPOINTS} waypoints and {MAX_FRAMES_PER_SWEEP} frames per sweep"
+            ));
+        }
+        let m = &self.motion_errors;
+        let spreads = [
+            m.turn_sigma_deg,
+            m.turn_bias_deg.abs(),
+            m.heading_sigma_deg,
+            m.forward_sigma_rel * 90.0,
+            (m.rotation_centre_offset_m.abs() + m.rotation_centre_jitter_m) * 90.0,
+        ];
+        if spreads
+            .iter()
+            .any(|v| !(v.is_finite() && (0.0..=90.0).contains(v)))
+        {
+            return bad(
+                "motion_errors: turn and heading errors within 0-90°, forward_sigma_rel within 0-1, \
+                 rotation centre offset and jitter within 1 m",
+            );
+        }
+        let l = &self.look;
+        let [x0, y0, x1, y1] = self.world.bounds;
+        let specks = ((x1 - x0) * (y1 - y0)).abs() * l.specks_per_m2;
+        let noise_ok = (0.0..=255.0).contains(&l.noise_sigma);
+        let specks_ok = (0.0..=MAX_SPECKS as f64).contains(&specks);
+        if !(noise_ok && specks_ok) {
+            return bad(&format!(
+                "look: noise_sigma within 0-255 levels and at most {MAX_SPECKS} specks over the world's bounds"
+            ));
         }
         if self
             .route

@@ -25,6 +25,7 @@ pub fn true_profile(
     view_bearings_rad: (f64, f64),
 ) -> Rop {
     let (lo, hi) = view_bearings_rad;
+    #[allow(clippy::expect_used, reason = "a camera's view and a checked bin width")]
     let mut rop = Rop::covering(lo, hi, bin_width_rad, max_range_m as f32)
         .expect("camera view and bin width are valid");
     for i in 0..rop.len() {

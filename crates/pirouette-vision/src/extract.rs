@@ -69,6 +69,10 @@ impl RopExtractor {
     ///
     /// # Panics
     /// When `config` is invalid; see [`RopExtractor::try_new`].
+    #[allow(
+        clippy::expect_used,
+        reason = "documented under # Panics; try_new is the fallible form"
+    )]
     pub fn new(camera: &(impl CameraModel + ?Sized), max_range_m: f64, config: VisionConfig) -> Self {
         Self::try_new(camera, max_range_m, config).expect("valid vision settings")
     }
@@ -110,6 +114,10 @@ impl RopExtractor {
             .map(|u| table.floor(u, height - 1).map(|p| p.bearing()))
             .collect();
         let view_rad = table.bearing_span().unwrap_or((0.0, 0.0));
+        #[allow(
+            clippy::expect_used,
+            reason = "the bin width is checked above and the view span is finite"
+        )]
         let bins = Rop::covering(view_rad.0, view_rad.1, config.bin_width_rad, max_range_m as f32)
             .expect("bin width checked and the view span is finite");
         let crossings = (0..width)
@@ -188,6 +196,10 @@ impl RopExtractor {
     /// The profile from column boundaries (see [`RopExtractor::rop`]).
     pub fn rop_from_boundaries(&self, boundaries: &[ColumnBoundary]) -> Rop {
         let (lo, hi) = self.view_rad;
+        #[allow(
+            clippy::expect_used,
+            reason = "the extractor's bin width was checked when it was made"
+        )]
         let mut rop = Rop::covering(lo, hi, self.config.bin_width_rad, self.max_range_m)
             .expect("bin width checked and the view span is finite");
         // Each column's floor point at its boundary (or its farthest floor

@@ -39,6 +39,7 @@
 //! # Ok::<(), pirouette_vision::VisionError>(())
 //! ```
 #![deny(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod boundary;
 mod config;

@@ -501,6 +501,7 @@ fn step_blocks(
         // neighbours (as [`smoothed`]).
         let mut pixel = [[0f32; BLOCK]; 3];
         for c in 0..3 {
+            #[allow(clippy::expect_used, reason = "the sums hold whole blocks per channel")]
             let sum: &[u16; BLOCK] = sums[c * lanes + base..c * lanes + base + BLOCK]
                 .try_into()
                 .expect("a whole block");

@@ -292,6 +292,10 @@ impl Pair<'_> {
         // Eight pairs of bins at a time, as fixed-size arrays the compiler
         // maps onto vector registers.
         #[inline(always)]
+        #[allow(
+            clippy::expect_used,
+            reason = "callers pass a base with LANES values after it"
+        )]
         fn block(c: &[f32], base: usize) -> &[f32; LANES] {
             c[base..base + LANES].try_into().expect("a whole block")
         }
