@@ -52,6 +52,31 @@ impl Default for PipelineConfig {
     }
 }
 
+impl PipelineConfig {
+    /// Refuses settings that cannot work together, before any data is
+    /// read: the vision settings' own checks, a turn window wider than one
+    /// bin (turns are matched bin against bin, all at the vision settings'
+    /// width), a far reach of at least the soft limit, and a grid that can
+    /// be made.
+    pub fn check(&self) -> Result<()> {
+        self.vision.validate().context("vision settings")?;
+        let bin = self.vision.bin_width_rad;
+        let window = self.sweep.matching.window_rad;
+        if !(window.is_finite() && window >= bin) {
+            anyhow::bail!(
+                "the turn window ±{:.3}° is narrower than one profile bin ({:.3}°)",
+                window.to_degrees(),
+                bin.to_degrees()
+            );
+        }
+        if !(self.map.far_reach.is_finite() && self.map.far_reach >= 1.0) {
+            anyhow::bail!("far reach {} is not a factor of at least 1", self.map.far_reach);
+        }
+        pirouette_grid::OccupancyGrid::new(self.map.grid.clone()).context("grid settings")?;
+        Ok(())
+    }
+}
+
 /// What a run reports as it goes: once per frame profiled (from several
 /// threads), once per step of the map ([`crate::mapping::progress_steps`]
 /// of them).
@@ -404,4 +429,27 @@ pub fn commanded_turns(ds: &Dataset, frames: &[usize]) -> Vec<Option<f64>> {
             _ => None,
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_that_cannot_work_together_are_refused() {
+        assert!(PipelineConfig::default().check().is_ok());
+        let mut narrow = PipelineConfig::default();
+        narrow.sweep.matching.window_rad = 0.1f64.to_radians();
+        let err = narrow.check().unwrap_err().to_string();
+        assert!(err.contains("narrower than one profile bin"), "{err}");
+        let mut grid = PipelineConfig::default();
+        grid.map.grid.resolution_m = -1.0;
+        assert!(grid.check().unwrap_err().to_string().contains("grid"));
+        let mut vision = PipelineConfig::default();
+        vision.vision.bin_width_rad = f64::NAN;
+        assert!(vision.check().unwrap_err().to_string().contains("vision"));
+        let mut reach = PipelineConfig::default();
+        reach.map.far_reach = 0.5;
+        assert!(reach.check().is_err());
+    }
 }
