@@ -1,7 +1,7 @@
 //! `pirouette graph optimise`: a g2o pose graph in, the optimised graph out.
 
 use anyhow::{bail, Context, Result};
-use pirouette::graph::{init, optimise as solve, Kernel, OptimiseConfig, Solver};
+use pirouette::graph::{init, optimise as solve, Kernel, OptimiseConfig, Residual, Solver};
 use pirouette::io::{read_g2o, write_g2o};
 use serde_json::json;
 use std::path::PathBuf;
@@ -41,6 +41,11 @@ pub struct GraphOptimiseArgs {
     /// odometry drifts far).
     #[arg(long, default_value = "file", value_parser = ["file", "chain", "chordal"])]
     init: String,
+    /// The residual minimised: g2o ((x, y, θ) of z⁻¹·xi⁻¹·xj) or log (its
+    /// SE(2) logarithm, as GTSAM takes it). χ² is reported in g2o's either
+    /// way; `cost_final` in the one minimised.
+    #[arg(long, default_value = "g2o", value_parser = ["g2o", "log"])]
+    residual: String,
 }
 
 /// Runs `pirouette graph optimise`.
@@ -58,6 +63,9 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
     let start = Instant::now();
     let mut g = read_g2o(&a.input)?;
     let read_s = start.elapsed().as_secs_f64();
+    if a.residual == "log" {
+        g.graph.residual = Residual::Log;
+    }
     if let Some(kind) = &a.robust {
         let kernel = match kind.as_str() {
             "huber" => Kernel::Huber {
@@ -100,6 +108,8 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
                 "edges": g.graph.edges.len(),
                 "chi2_initial": summary.chi2_initial,
                 "chi2_final": summary.chi2_final,
+                "cost_final": summary.cost_final,
+                "residual": a.residual,
                 "iterations": summary.iterations,
                 "time_s": time_s,
                 "read_s": read_s,

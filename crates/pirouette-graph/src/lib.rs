@@ -137,6 +137,44 @@ impl Kernel {
     }
 }
 
+/// Which residual an edge's cost is taken in. Both are zero exactly where
+/// the poses agree with the measurement; they differ where the residual
+/// turns, so the same poses cost differently in each, and each has its own
+/// minimum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Residual {
+    /// g2o's: the `(x, y, θ)` of `z⁻¹ · (xᵢ⁻¹ · xⱼ)`. The χ² every solver
+    /// reports is taken in this one.
+    #[default]
+    G2o,
+    /// GTSAM's: the SE(2) logarithm of the same pose, whose translation is
+    /// the g2o one turned and scaled by `V(θ)⁻¹`.
+    Log,
+}
+
+/// The SE(2) logarithm of the pose whose `(x, y, θ)` is `e`, and its
+/// derivative with respect to `e`.
+fn log_of(e: [f64; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let [x, y, t] = e;
+    let half = 0.5 * t;
+    // a = (θ/2)·cot(θ/2), a' its derivative; their series near 0.
+    let (a, da) = if t.abs() < 1e-4 {
+        (1.0 - t * t / 12.0, -t / 6.0)
+    } else {
+        let cot = half.cos() / half.sin();
+        let csc2 = 1.0 / (half.sin() * half.sin());
+        (half * cot, 0.5 * cot - 0.25 * t * csc2)
+    };
+    let b = half;
+    let log = [a * x + b * y, -b * x + a * y, t];
+    let d = [
+        [a, b, da * x + 0.5 * y],
+        [-b, a, -0.5 * x + da * y],
+        [0.0, 0.0, 1.0],
+    ];
+    (log, d)
+}
+
 /// A measured relative pose: pose `to` in the frame of pose `from`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Edge {
@@ -182,9 +220,49 @@ impl Edge {
         ]
     }
 
-    /// `eᵀ Ω e` at the given poses.
+    /// `eᵀ Ω e` at the given poses, `e` g2o's residual.
     pub fn chi2(&self, xi: &Pose2, xj: &Pose2) -> f64 {
         quadratic(&self.information, &self.residual(xi, xj))
+    }
+
+    /// The residual of the given kind at poses `xi`, `xj`.
+    pub fn residual_in(&self, kind: Residual, xi: &Pose2, xj: &Pose2) -> [f64; 3] {
+        let e = self.residual(xi, xj);
+        match kind {
+            Residual::G2o => e,
+            Residual::Log => log_of(e).0,
+        }
+    }
+
+    /// `eᵀ Ω e` with the residual of the given kind.
+    pub fn cost_in(&self, kind: Residual, xi: &Pose2, xj: &Pose2) -> f64 {
+        quadratic(&self.information, &self.residual_in(kind, xi, xj))
+    }
+
+    /// [`Edge::linearise`] for the residual of the given kind.
+    pub(crate) fn linearise_in(
+        &self,
+        kind: Residual,
+        xi: &Pose2,
+        xj: &Pose2,
+    ) -> ([f64; 3], [[f64; 3]; 3], [[f64; 3]; 3]) {
+        let (e, ji, jj) = self.linearise(xi, xj);
+        match kind {
+            Residual::G2o => (e, ji, jj),
+            Residual::Log => {
+                let (l, d) = log_of(e);
+                let chain = |j: &[[f64; 3]; 3]| {
+                    let mut out = [[0.0; 3]; 3];
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            out[r][c] = (0..3).map(|m| d[r][m] * j[m][c]).sum();
+                        }
+                    }
+                    out
+                };
+                (l, chain(&ji), chain(&jj))
+            }
+        }
     }
 
     /// The residual and its Jacobians with respect to `(x, y, θ)` of `xi`
@@ -231,6 +309,9 @@ pub struct PoseGraph {
     pub edges: Vec<Edge>,
     /// The pose held where it is, which fixes the gauge.
     pub held: usize,
+    /// The residual the optimiser minimises (χ² is always reported in
+    /// g2o's).
+    pub residual: Residual,
 }
 
 impl PoseGraph {
@@ -240,6 +321,7 @@ impl PoseGraph {
             poses,
             edges: Vec::new(),
             held: 0,
+            residual: Residual::G2o,
         }
     }
 
@@ -395,6 +477,64 @@ mod tests {
             cases += 1;
         }
         assert_eq!(cases, 200);
+    }
+
+    /// The log residual's Jacobians agree with central differences too,
+    /// and the residual is the SE(2) logarithm: exp of it gives the pose
+    /// back.
+    #[test]
+    fn log_residual_jacobians_match_finite_differences() {
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        for _ in 0..200 {
+            let mut pose = || {
+                Pose2::new(
+                    rng.random_range(-3.0..3.0),
+                    rng.random_range(-3.0..3.0),
+                    rng.random_range(-3.1..3.1),
+                )
+            };
+            let (xi, xj, z) = (pose(), pose(), pose());
+            let edge = Edge::new(0, 1, z, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+            let (l, ji, jj) = edge.linearise_in(Residual::Log, &xi, &xj);
+            // exp(l): the translation V(θ)·u.
+            let (t, u) = (l[2], [l[0], l[1]]);
+            let (v00, v01) = if t.abs() < 1e-9 {
+                (1.0, 0.0)
+            } else {
+                (t.sin() / t, -(1.0 - t.cos()) / t)
+            };
+            let back = [v00 * u[0] + v01 * u[1], -v01 * u[0] + v00 * u[1]];
+            let e = edge.residual(&xi, &xj);
+            assert!(
+                (back[0] - e[0]).abs() < 1e-9 && (back[1] - e[1]).abs() < 1e-9,
+                "{back:?} {e:?}"
+            );
+            let h = 1e-6;
+            for k in 0..3 {
+                let bump = |p: &Pose2, d: f64| {
+                    let mut v = [p.x, p.y, p.theta];
+                    v[k] += d;
+                    Pose2 {
+                        x: v[0],
+                        y: v[1],
+                        theta: v[2],
+                    }
+                };
+                let (a, b) = (
+                    edge.residual_in(Residual::Log, &bump(&xi, h), &xj),
+                    edge.residual_in(Residual::Log, &bump(&xi, -h), &xj),
+                );
+                let (c, d) = (
+                    edge.residual_in(Residual::Log, &xi, &bump(&xj, h)),
+                    edge.residual_in(Residual::Log, &xi, &bump(&xj, -h)),
+                );
+                for r in 0..3 {
+                    let wrap = |v: f64| if r == 2 { wrap_angle(v) } else { v };
+                    assert!((wrap(a[r] - b[r]) / (2.0 * h) - ji[r][k]).abs() < 1e-5);
+                    assert!((wrap(c[r] - d[r]) / (2.0 * h) - jj[r][k]).abs() < 1e-5);
+                }
+            }
+        }
     }
 
     #[test]

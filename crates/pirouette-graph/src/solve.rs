@@ -52,7 +52,8 @@ pub struct Summary {
     pub chi2_initial: f64,
     /// χ² after.
     pub chi2_final: f64,
-    /// The robust cost after (χ² where every kernel is squared).
+    /// The robust cost after, in the graph's residual (χ² where every
+    /// kernel is squared and the residual is g2o's).
     pub cost_final: f64,
     /// Linearise-and-solve steps taken (a rejected damped step counts).
     pub iterations: usize,
@@ -117,7 +118,7 @@ impl Normal {
         self.system.clear();
         self.gradient.iter_mut().for_each(|g| *g = 0.0);
         for (e, blocks) in graph.edges.iter().zip(&self.blocks) {
-            let (r, ji, jj) = e.linearise(&poses[e.from], &poses[e.to]);
+            let (r, ji, jj) = e.linearise_in(graph.residual, &poses[e.from], &poses[e.to]);
             let (_, w) = e.kernel.cost_and_weight(quadratic(&e.information, &r));
             let omega = e.information.map(|row| row.map(|v| v * w));
             // ΩJ for both sides, then the blocks JᵀΩJ and JᵀΩe.
@@ -189,7 +190,11 @@ fn cost_at(graph: &PoseGraph, poses: &[Pose2]) -> f64 {
     graph
         .edges
         .iter()
-        .map(|e| e.kernel.cost_and_weight(e.chi2(&poses[e.from], &poses[e.to])).0)
+        .map(|e| {
+            e.kernel
+                .cost_and_weight(e.cost_in(graph.residual, &poses[e.from], &poses[e.to]))
+                .0
+        })
         .sum()
 }
 
