@@ -197,3 +197,60 @@ fn unusable_output_paths_are_refused_before_any_work() {
         "at least 1",
     );
 }
+
+/// A process killed at any moment while it writes leaves the file it was
+/// replacing intact, or the new one complete: never a torn file.
+#[test]
+fn killed_writers_leave_the_old_file_or_the_new_one() {
+    use pirouette::graph::synthetic;
+    use pirouette::io::{read_g2o, write_g2o, G2oGraph};
+    let dir = tempfile::tempdir().unwrap();
+    // A graph large enough that writing it takes a while.
+    let (graph, _) = synthetic::grid_world(60_000, 0.05, 0.01, 5);
+    let poses = graph.poses.len();
+    let input = dir.path().join("in.g2o");
+    write_g2o(
+        &input,
+        &G2oGraph {
+            ids: (0..poses as u64).collect(),
+            graph,
+            has_vertices: true,
+        },
+    )
+    .unwrap();
+    let out = dir.path().join("out.g2o");
+    let old = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
+    let (mut old_seen, mut new_seen) = (0, 0);
+    // Kill after delays spread over the run (reading, solving, writing).
+    for k in 0..12u64 {
+        std::fs::write(&out, old).unwrap();
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pirouette"))
+            .args([
+                "graph",
+                "optimise",
+                input.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--max-iterations",
+                "1",
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(40 * k * k));
+        let _ = child.kill();
+        let _ = child.wait();
+        let text = std::fs::read_to_string(&out).unwrap();
+        if text == old {
+            old_seen += 1;
+        } else {
+            let g = read_g2o(&out).expect("a complete new file");
+            assert_eq!(g.graph.poses.len(), poses);
+            new_seen += 1;
+        }
+    }
+    assert_eq!(old_seen + new_seen, 12);
+    assert!(old_seen > 0, "no kill landed before the rename");
+    eprintln!("killed 12 writers: the old file {old_seen} times, a complete new one {new_seen} times");
+}
