@@ -159,7 +159,14 @@ pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
 pub fn write_map(ds: &Dataset, mapped: &Mapped, dir: &Path) -> Result<()> {
     let ros = RosMap::from_grid(&mapped.map.grid);
     let sweep_poses: Vec<Pose2> = mapped.map.sweeps.iter().map(|s| s.pose).collect();
-    let picture = pirouette::plot::map_picture(&ros, &mapped.map.frame_poses, &sweep_poses);
+    let title = format!(
+        "Map of {}: {} frames, {} sweeps, {} cm cells",
+        ds.label(),
+        mapped.map.frame_poses.len(),
+        sweep_poses.len(),
+        ros.resolution_m * 100.0
+    );
+    let picture = pirouette::plot::map_figure(&ros, &mapped.map.frame_poses, &sweep_poses, &title);
     let mut png = Vec::new();
     picture.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     let records: Vec<PoseRecord> = ds

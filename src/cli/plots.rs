@@ -36,17 +36,18 @@ pub fn profile_plots(
             .replace(['/', '\\'], "-");
         let img = ds.load_image(i)?;
         let truth = ds.truth_rop(i)?.map(|t| t.to_rop(ds.manifest.max_range as f32));
+        let frame = &ds.manifest.frames[i].image;
         save_png(
-            &plot::rop_diagram(&rops[i], truth.as_ref()),
+            &plot::rop_figure(&rops[i], truth.as_ref(), frame),
             &dir.join(format!("{stem}-rop.png")),
         )?;
         save_png(
-            &plot::floor_view(camera, &img, &rops[i]),
+            &plot::floor_figure(camera, &img, &rops[i], frame),
             &dir.join(format!("{stem}-floor.png")),
         )?;
         let boundaries = ex.boundaries(&img)?;
         save_png(
-            &plot::boundary_overlay(&img, &boundaries),
+            &plot::boundary_figure(&img, &boundaries, frame),
             &dir.join(format!("{stem}-boundary.png")),
         )?;
         bar.inc(1);
@@ -61,7 +62,7 @@ pub fn sweep_plots(sweeps: &[pirouette::pipeline::DatasetSweep], dir: &Path) -> 
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for s in sweeps {
         save_png(
-            &plot::sweep_diagram(&s.sweep.rop),
+            &plot::sweep_figure(&s.sweep.rop, &s.id.to_string()),
             &dir.join(format!("sweep-{:02}.png", s.id)),
         )?;
     }

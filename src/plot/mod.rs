@@ -320,6 +320,174 @@ pub fn map_picture(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2]) -> RgbImage
     img
 }
 
+/// A legend entry's mark.
+#[derive(Debug, Clone, Copy)]
+pub enum Swatch {
+    /// A filled square of the colour (an area, a cell).
+    Fill(Rgb<u8>),
+    /// A line of the colour (a path, a profile).
+    Line(Rgb<u8>),
+    /// A dot of the colour (a place).
+    Dot(Rgb<u8>),
+}
+
+/// `img` with a title above it and a legend below: each entry a swatch
+/// and its words, laid out in rows.
+pub fn titled(img: &RgbImage, title: &str, legend: &[(Swatch, &str)]) -> RgbImage {
+    // Half-size text where the title would not fit a small picture, and
+    // the title wrapped at spaces where even that is too wide.
+    let scale = if text_width(title, LABEL_SCALE) + 16 > img.width() {
+        1
+    } else {
+        LABEL_SCALE
+    };
+    let th = text_height(scale);
+    let (pad, swatch, gap) = (4 * scale, th, 9 * scale);
+    let width = img.width().max(120);
+    let mut lines: Vec<String> = vec![String::new()];
+    for word in title.split(' ') {
+        let last = lines.last().map(String::as_str).unwrap_or("");
+        let joined = if last.is_empty() {
+            word.to_string()
+        } else {
+            format!("{last} {word}")
+        };
+        if text_width(&joined, scale) + 2 * pad > width && !last.is_empty() {
+            lines.push(word.to_string());
+        } else if let Some(l) = lines.last_mut() {
+            *l = joined;
+        }
+    }
+    // Entries placed in rows that fit the width.
+    let mut rows: Vec<Vec<(u32, Swatch, &str)>> = vec![Vec::new()];
+    let mut x = pad;
+    for &(mark, words) in legend {
+        let w = swatch + 6 + text_width(words, scale);
+        if x + w + pad > width && x > pad {
+            rows.push(Vec::new());
+            x = pad;
+        }
+        if let Some(row) = rows.last_mut() {
+            row.push((x, mark, words));
+        }
+        x += w + gap;
+    }
+    let title_h = lines.len() as u32 * (th + pad) + pad;
+    let row_h = th + pad;
+    let legend_h = if legend.is_empty() {
+        0
+    } else {
+        rows.len() as u32 * row_h + pad
+    };
+    let mut out = RgbImage::from_pixel(width, title_h + img.height() + legend_h, BACKGROUND);
+    for (k, line) in lines.iter().enumerate() {
+        let y = pad + k as u32 * (th + pad);
+        draw_text(&mut out, pad as i32, y as i32, line, Rgb([20, 20, 20]), scale);
+    }
+    image::imageops::overlay(&mut out, img, 0, i64::from(title_h));
+    for (r, row) in rows.iter().enumerate() {
+        let y = title_h + img.height() + pad / 2 + r as u32 * row_h;
+        for &(x, mark, words) in row {
+            let (cx, cy) = ((x + swatch / 2) as f32, (y + swatch / 2) as f32);
+            match mark {
+                Swatch::Fill(c) => {
+                    for dy in 0..swatch {
+                        for dx in 0..swatch {
+                            let edge = dx == 0 || dy == 0 || dx == swatch - 1 || dy == swatch - 1;
+                            out.put_pixel(x + dx, y + dy, if edge { LABEL } else { c });
+                        }
+                    }
+                }
+                Swatch::Line(c) => {
+                    for d in -1..=1 {
+                        let yy = cy + d as f32;
+                        draw_line_segment_mut(&mut out, (x as f32, yy), ((x + swatch) as f32, yy), c);
+                    }
+                }
+                Swatch::Dot(c) => {
+                    draw_filled_circle_mut(&mut out, (cx as i32, cy as i32), (swatch / 2) as i32, c)
+                }
+            }
+            draw_text(&mut out, (x + swatch + 6) as i32, y as i32, words, LABEL, scale);
+        }
+    }
+    out
+}
+
+/// [`map_picture`] with a title and its legend: what each colour and
+/// mark means, and how the map frame's axes lie (+x right, +y up).
+pub fn map_figure(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2], title: &str) -> RgbImage {
+    titled(
+        &map_picture(map, frames, sweeps),
+        title,
+        &[
+            (Swatch::Fill(Rgb([255, 255, 255])), "free floor"),
+            (Swatch::Fill(Rgb([0, 0, 0])), "obstacle"),
+            (Swatch::Fill(Rgb([190, 190, 190])), "unknown"),
+            (Swatch::Line(Rgb([30, 90, 220])), "robot path"),
+            (Swatch::Dot(MEASURED), "sweep spot, tick = heading"),
+            (Swatch::Dot(TRUTH), "first frame: map origin, facing +x"),
+            (Swatch::Line(LABEL), "map axes: +x right, +y up"),
+        ],
+    )
+}
+
+/// [`rop_diagram`] with a title naming the frame and its legend.
+pub fn rop_figure(rop: &Rop, truth: Option<&Rop>, frame: &str) -> RgbImage {
+    let mut legend = vec![(Swatch::Dot(MEASURED), "measured range")];
+    if truth.is_some() {
+        legend.push((Swatch::Dot(TRUTH), "true range"));
+    }
+    legend.push((Swatch::Line(LIMIT), "soft range limit"));
+    legend.push((Swatch::Line(GRID), "grid: 10 cm, 10 deg; bearing + = left"));
+    titled(
+        &rop_diagram(rop, truth),
+        &format!("Radial obstacle profile of {frame}"),
+        &legend,
+    )
+}
+
+/// [`sweep_diagram`] with a title naming the sweep and its legend.
+pub fn sweep_figure(sweep: &Rop, name: &str) -> RgbImage {
+    titled(
+        &sweep_diagram(sweep),
+        &format!("360 deg radial sweep {name} (forward up)"),
+        &[
+            (Swatch::Fill(Rgb([225, 225, 225])), "floor seen"),
+            (Swatch::Line(LIMIT), "soft range limit"),
+            (Swatch::Dot(MEASURED), "obstacle within the soft limit"),
+            (Swatch::Dot(Rgb([150, 150, 150])), "range beyond it"),
+            (Swatch::Dot(Rgb([40, 40, 40])), "robot"),
+            (Swatch::Line(GRID), "grid: 10 cm, 10 deg"),
+        ],
+    )
+}
+
+/// [`floor_view`] with a title naming the frame and its legend.
+pub fn floor_figure(camera: &impl CameraModel, image: &RgbImage, rop: &Rop, frame: &str) -> RgbImage {
+    titled(
+        &floor_view(camera, image, rop),
+        &format!("Floor seen from above, {frame} (robot at the bottom, forward up)"),
+        &[
+            (Swatch::Dot(MEASURED), "obstacle found"),
+            (Swatch::Line(LIMIT), "soft range limit"),
+            (Swatch::Line(GRID), "grid: 10 cm, 10 deg"),
+        ],
+    )
+}
+
+/// [`boundary_overlay`] with a title naming the frame and its legend.
+pub fn boundary_figure(image: &RgbImage, boundaries: &[ColumnBoundary], frame: &str) -> RgbImage {
+    titled(
+        &boundary_overlay(image, boundaries),
+        &format!("Floor boundary in {frame}"),
+        &[
+            (Swatch::Line(MEASURED), "obstacle's base"),
+            (Swatch::Line(TRUTH), "floor clear to the top"),
+        ],
+    )
+}
+
 /// A scale bar in the bottom left corner: the longest of 1 m, 50, 20 and
 /// 10 cm that takes at most a quarter of the picture's width, labelled.
 /// `px_per_m`: pixels per metre.
@@ -353,6 +521,35 @@ fn scale_bar(img: &mut RgbImage, px_per_m: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A title and legend go above and below the picture, which is copied
+    /// unchanged between them; a title too wide for a small picture is
+    /// drawn at half size rather than widening it much.
+    #[test]
+    fn a_titled_picture_keeps_the_picture_and_adds_title_and_legend() {
+        let inner = RgbImage::from_pixel(300, 100, Rgb([10, 200, 10]));
+        let legend = [
+            (Swatch::Dot(MEASURED), "red dots"),
+            (Swatch::Line(TRUTH), "green line"),
+        ];
+        let out = titled(&inner, "A title", &legend);
+        assert_eq!(out.width(), 300);
+        assert!(out.height() > 100 + 2 * text_height(LABEL_SCALE));
+        // The picture sits right under the title bar, unchanged.
+        let bar = text_height(LABEL_SCALE) + 2 * 4 * LABEL_SCALE;
+        assert!((0..300).all(|x| *out.get_pixel(x, bar) == Rgb([10, 200, 10])
+            && *out.get_pixel(x, bar + 99) == Rgb([10, 200, 10])));
+        // Ink in the title bar and in the legend.
+        assert!((0..bar).any(|y| (0..300).any(|x| *out.get_pixel(x, y) != BACKGROUND)));
+        assert!((bar + 100..out.height()).any(|y| (0..300).any(|x| *out.get_pixel(x, y) == MEASURED)));
+        let long = titled(
+            &inner,
+            "A title far too long for a picture three hundred pixels wide",
+            &[],
+        );
+        assert_eq!(long.width(), 300, "wrapped, not widened");
+        assert!(long.height() >= 100 + 2 * text_height(1), "two lines at least");
+    }
 
     #[test]
     fn diagram_draws_profile_truth_and_limit() {
