@@ -122,3 +122,37 @@ fn commands_not_yet_available_fail_clearly() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not available"));
 }
+
+/// `camera --overlay` writes each image with its floor grid, titled, and
+/// refuses an output that is a file before any work.
+#[test]
+fn camera_overlay_writes_one_picture_per_frame() {
+    let ds_dir = crate::util::rendered("field-pirouette", 5);
+    let ds = pirouette::io::Dataset::open(&ds_dir).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("overlay");
+    let run = pirouette(&[
+        "camera",
+        ds_dir.to_str().unwrap(),
+        "--overlay",
+        out.to_str().unwrap(),
+    ]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let written: Vec<_> = std::fs::read_dir(&out).unwrap().filter_map(|e| e.ok()).collect();
+    assert_eq!(written.len(), ds.manifest.frames.len());
+    // Each is the frame with a title above and a legend below.
+    let first = image::open(out.join("s00-000-overlay.png")).unwrap();
+    let frame = ds.load_image(0).unwrap();
+    assert_eq!(first.width(), frame.width());
+    assert!(first.height() > frame.height() + 20);
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let run = pirouette(&[
+        "camera",
+        ds_dir.to_str().unwrap(),
+        "--overlay",
+        file.to_str().unwrap(),
+    ]);
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("not a folder"));
+}

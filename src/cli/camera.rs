@@ -18,6 +18,16 @@ pub struct CameraArgs {
     /// JSON Lines on stdout, one band per line.
     #[arg(long)]
     json: bool,
+    /// Instead of the comparison: write each image of the dataset with the
+    /// floor grid its camera model projects onto it (lines every 10 cm,
+    /// range rings every 25 cm, bearings every 10°), to check a
+    /// calibration by eye, into this folder.
+    #[arg(long)]
+    overlay: Option<PathBuf>,
+    /// The model the overlay draws: paper or pinhole (default: the most
+    /// accurate the dataset allows).
+    #[arg(long, value_parser = ["paper", "pinhole"])]
+    model: Option<String>,
 }
 
 /// `pirouette camera`.
@@ -31,6 +41,9 @@ pub fn camera(a: CameraArgs) -> Result<()> {
         }
     }
     let ds = super::open_dataset(&a.dataset)?;
+    if let Some(dir) = &a.overlay {
+        return overlay(&ds, dir, a.model.as_deref());
+    }
     let cam = &ds.manifest.camera;
     let Some(pinhole) = cam.pinhole_model() else {
         bail!(
@@ -68,5 +81,43 @@ pub fn camera(a: CameraArgs) -> Result<()> {
             b.pixels
         )?;
     }
+    Ok(())
+}
+
+/// `pirouette camera --overlay DIR`: each image with its projected floor
+/// grid, `DIR/<sweep>-<k>-overlay.png`.
+fn overlay(ds: &pirouette::io::Dataset, dir: &std::path::Path, model: Option<&str>) -> Result<()> {
+    use pirouette::camera::ModelKind;
+    super::check_output_dir(dir)?;
+    let kind = model.map(|m| {
+        if m == "paper" {
+            ModelKind::Paper
+        } else {
+            ModelKind::Pinhole
+        }
+    });
+    let camera = ds.camera(kind)?;
+    let reach = 2.0 * ds.manifest.max_range;
+    let bar = super::progress(ds.manifest.frames.len(), "overlay");
+    for (i, f) in ds.manifest.frames.iter().enumerate() {
+        let img = ds.load_image(i)?;
+        let picture = pirouette::plot::calibration_figure(&camera, &img, reach, &f.image);
+        let stem = std::path::Path::new(&f.image)
+            .strip_prefix("frames")
+            .unwrap_or(std::path::Path::new(&f.image))
+            .with_extension("")
+            .to_string_lossy()
+            .replace(['/', '\\'], "-");
+        let mut bytes = Vec::new();
+        picture.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+        pirouette::io::atomic_write(&dir.join(format!("{stem}-overlay.png")), &bytes)?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    outln!(
+        "{} images with the floor grid written to {} (lines every 10 cm, rings every 25 cm, bearings every 10°)",
+        ds.manifest.frames.len(),
+        dir.display()
+    )?;
     Ok(())
 }

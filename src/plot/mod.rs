@@ -488,6 +488,89 @@ pub fn boundary_figure(image: &RgbImage, boundaries: &[ColumnBoundary], frame: &
     )
 }
 
+/// Colours of the calibration overlay's floor grid, range rings and
+/// bearing rays.
+pub const OVERLAY_GRID: Rgb<u8> = Rgb([0, 220, 255]);
+/// See [`OVERLAY_GRID`].
+pub const OVERLAY_RING: Rgb<u8> = Rgb([255, 210, 0]);
+/// See [`OVERLAY_GRID`].
+pub const OVERLAY_RAY: Rgb<u8> = Rgb([255, 60, 200]);
+
+/// The camera image with the floor grid its model projects onto it, to
+/// check a calibration by eye: lines every 10 cm along and across the
+/// robot's heading, range rings every 25 cm and bearing rays every 10°
+/// from the turning centre, out to `reach_m`. Where the model is right,
+/// a line on a floor seam or tape in the image lies on it.
+pub fn calibration_overlay(camera: &impl CameraModel, image: &RgbImage, reach_m: f64) -> RgbImage {
+    let mut img = image.clone();
+    // A floor curve drawn as short projected segments, each kept only
+    // where both ends fall in the image.
+    let mut curve = |points: &mut dyn Iterator<Item = Point2>, colour: Rgb<u8>| {
+        let mut last: Option<(f64, f64)> = None;
+        for p in points {
+            let here = camera.floor_to_pixel(p).filter(|&(u, v)| camera.contains(u, v));
+            if let (Some(a), Some(b)) = (last, here) {
+                draw_line_segment_mut(
+                    &mut img,
+                    (a.0 as f32, a.1 as f32),
+                    (b.0 as f32, b.1 as f32),
+                    colour,
+                );
+            }
+            last = here;
+        }
+    };
+    let step = 0.005;
+    let n = (reach_m / step).ceil() as i64;
+    let lines = (reach_m / GRID_RANGE_M).floor() as i64;
+    for k in -lines..=lines {
+        let c = k as f64 * GRID_RANGE_M;
+        // Across the heading (x = c) and along it (y = c).
+        curve(
+            &mut (-n..=n).map(|i| Point2::new(c, i as f64 * step)),
+            OVERLAY_GRID,
+        );
+        curve(
+            &mut (0..=n).map(|i| Point2::new(i as f64 * step, c)),
+            OVERLAY_GRID,
+        );
+    }
+    let rings = (reach_m / 0.25).floor() as i64;
+    for k in 1..=rings {
+        let r = k as f64 * 0.25;
+        curve(
+            &mut (-900..=900).map(|i| Point2::from_polar(r, (i as f64 * 0.1).to_radians())),
+            OVERLAY_RING,
+        );
+    }
+    for k in -9..=9 {
+        let b = (k as f64 * GRID_BEARING_DEG).to_radians();
+        curve(
+            &mut (0..=n).map(|i| Point2::from_polar(i as f64 * step, b)),
+            OVERLAY_RAY,
+        );
+    }
+    img
+}
+
+/// [`calibration_overlay`] with a title naming the frame and its legend.
+pub fn calibration_figure(
+    camera: &impl CameraModel,
+    image: &RgbImage,
+    reach_m: f64,
+    frame: &str,
+) -> RgbImage {
+    titled(
+        &calibration_overlay(camera, image, reach_m),
+        &format!("Calibration check, {frame}: the floor grid the camera model projects"),
+        &[
+            (Swatch::Line(OVERLAY_GRID), "10 cm grid"),
+            (Swatch::Line(OVERLAY_RING), "range every 25 cm"),
+            (Swatch::Line(OVERLAY_RAY), "bearing every 10 deg"),
+        ],
+    )
+}
+
 /// A scale bar in the bottom left corner: the longest of 1 m, 50, 20 and
 /// 10 cm that takes at most a quarter of the picture's width, labelled.
 /// `px_per_m`: pixels per metre.
@@ -549,6 +632,49 @@ mod tests {
         );
         assert_eq!(long.width(), 300, "wrapped, not widened");
         assert!(long.height() >= 100 + 2 * text_height(1), "two lines at least");
+    }
+
+    /// The overlay draws where the model projects the floor grid: a point
+    /// on two grid lines is in the grid's colour, a point between lines,
+    /// rings and rays is left as it was.
+    #[test]
+    fn the_calibration_overlay_draws_the_grid_where_the_model_projects_it() {
+        let camera = pirouette_camera::PinholeModel {
+            width: 320,
+            height: 240,
+            fx: 277.1,
+            fy: 277.1,
+            cx: 159.5,
+            cy: 119.5,
+            height_m: 0.1,
+            tilt_rad: 25f64.to_radians(),
+            mount_forward_m: 0.01,
+            mount_left_m: 0.0,
+        };
+        let black = RgbImage::new(320, 240);
+        let img = calibration_overlay(&camera, &black, 1.8);
+        // The colours within a pixel of where `p` projects (a line is
+        // drawn to the nearest pixel).
+        let around = |p: Point2| -> Vec<Rgb<u8>> {
+            let (u, v) = camera.floor_to_pixel(p).unwrap();
+            let (u, v) = (u.round() as i64, v.round() as i64);
+            (-1..=1)
+                .flat_map(|dv| (-1..=1).map(move |du| (u + du, v + dv)))
+                .map(|(x, y)| *img.get_pixel(x as u32, y as u32))
+                .collect()
+        };
+        assert!(around(Point2::new(0.5, 0.1)).contains(&OVERLAY_GRID));
+        assert!(around(Point2::new(0.55, 0.05))
+            .iter()
+            .all(|c| *c == Rgb([0, 0, 0])));
+        // On the 0.75 m ring, between rays and grid lines.
+        assert!(around(Point2::from_polar(0.75, 14f64.to_radians())).contains(&OVERLAY_RING));
+        // The 0° ray, drawn last, covers the y = 0 grid line.
+        let ray = around(Point2::new(0.65, 0.0));
+        assert!(
+            ray.contains(&OVERLAY_RAY) && !ray.contains(&OVERLAY_GRID),
+            "{ray:?}"
+        );
     }
 
     #[test]
