@@ -253,6 +253,14 @@ pub fn eval_profile(a: EvalProfileArgs) -> Result<()> {
             print_scores("overall", *model, tally, a.json)?;
         }
     }
+    if !a.json {
+        outln!(
+            "\n|rel err|: median |measured − true| / true over the truth bins measured; bias: the same, signed\n\
+             within10%: truth bins measured within 10 %; missed: truth bins given no range\n\
+             false rng: obstacle-free bins given a range; (scene): the same, counting only bins where the scene\n\
+             cast densely has no obstacle either; truth, free: bins with and without a true obstacle"
+        )?;
+    }
     Ok(())
 }
 

@@ -226,6 +226,14 @@ pub fn eval_sweep(a: EvalSweepArgs) -> Result<()> {
     if a.datasets.len() > 1 {
         print_scores("overall", &overall, a.json)?;
     }
+    if !a.json {
+        outln!(
+            "\nturns: turns checked; verified: turns whose match was trusted; loop: pirouettes whose loop closure\n\
+             was applied; med/p95/max err: |estimated − true turn| over verified turns; >3° ok: verified turns\n\
+             more than 3° off (wrong and not flagged); cmd err: median |commanded − true turn|; sweep hd, cmd hd:\n\
+             median heading error accumulated over a sweep, estimated and commanded"
+        )?;
+    }
     Ok(())
 }
 
