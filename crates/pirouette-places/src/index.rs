@@ -58,6 +58,10 @@ pub struct IndexContents {
 pub struct QueryConfig {
     /// Places taken from the key search to be re-ranked.
     pub neighbours: usize,
+    /// Rotations tried per place: the deepest minima of the shift search
+    /// (a view from a spot a decimetre away can line up best a few tens
+    /// of degrees off, where a near wall's shape changes most).
+    pub rotations: usize,
     /// Candidates whose colour tags differ more than this (the mean
     /// log-chromaticity difference of [`crate::colour_distance`] over the
     /// sectors both saw) are dropped.
@@ -67,13 +71,14 @@ pub struct QueryConfig {
 }
 
 impl Default for QueryConfig {
-    /// 16 neighbours; colour differing by more than 0.5 in
+    /// 16 neighbours, 4 rotations each; colour differing by more than 0.5 in
     /// log-chromaticity (a tenth of a channel's share differs by about
     /// 0.1; red against white by 2 or more) over at least 4 shared
     /// sectors rejects.
     fn default() -> Self {
         Self {
             neighbours: 16,
+            rotations: 4,
             max_colour_distance: 0.5,
             min_shared_sectors: 4,
         }
@@ -145,7 +150,11 @@ impl PlaceIndex {
         let transforms = Transforms::new(&contents.config)?;
         let n = contents.keys.len();
         let c = &contents.config;
-        let bad = |problem: &str| Err(PlacesError::BadIndex { problem: problem.into() });
+        let bad = |problem: &str| {
+            Err(PlacesError::BadIndex {
+                problem: problem.into(),
+            })
+        };
         if contents.dct.len() != n * c.coefficients
             || contents.colour_seen.len() != n
             || contents.colour.len() != n * c.sectors
@@ -153,13 +162,23 @@ impl PlaceIndex {
         {
             return bad("its arrays do not hold one entry per place");
         }
-        if contents.meta.iter().any(|m| m.dataset as usize >= contents.datasets.len()) {
+        if contents
+            .meta
+            .iter()
+            .any(|m| m.dataset as usize >= contents.datasets.len())
+        {
             return bad("a place names a dataset the index does not list");
         }
         if n > 0 && !contents.limit_m.is_some_and(|l| l.is_finite() && l > 0.0) {
             return bad("no soft range limit");
         }
-        if contents.keys.iter().flatten().chain(&contents.dct).any(|v| !v.is_finite()) {
+        if contents
+            .keys
+            .iter()
+            .flatten()
+            .chain(&contents.dct)
+            .any(|v| !v.is_finite())
+        {
             return bad("a signature holds a value that is not finite");
         }
         let mut index = Self {
@@ -207,7 +226,12 @@ impl PlaceIndex {
     /// Adds a place; returns its index. Its signature must have been made
     /// with the index's settings and the same soft range limit as the
     /// places before it.
-    pub fn insert(&mut self, signature: &Signature, limit_m: f32, meta: PlaceMeta) -> Result<usize, PlacesError> {
+    pub fn insert(
+        &mut self,
+        signature: &Signature,
+        limit_m: f32,
+        meta: PlaceMeta,
+    ) -> Result<usize, PlacesError> {
         self.check_signature(signature, limit_m)?;
         if meta.dataset as usize >= self.contents.datasets.len() {
             return Err(PlacesError::BadIndex {
@@ -315,11 +339,12 @@ impl PlaceIndex {
         found
     }
 
-    /// The places a query may be, best first: the key search's
-    /// [`QueryConfig::neighbours`] nearest, each lined up with the query
-    /// by a shift search on the rebuilt profiles (which gives the
-    /// rotation), those whose colours disagree dropped, ranked by the RMS
-    /// difference of the profiles.
+    /// The places a query may be, and at which rotation, best first: the
+    /// key search's [`QueryConfig::neighbours`] nearest, each lined up
+    /// with the query by a shift search on the rebuilt profiles (its
+    /// [`QueryConfig::rotations`] best rotations), those whose colours
+    /// disagree at that rotation dropped, ranked by the RMS difference of
+    /// the profiles. A place may appear once per rotation.
     pub fn query(&self, query: &Signature, config: &QueryConfig) -> Vec<Candidate> {
         let near = self.nearest_keys(&query.key, config.neighbours);
         self.rerank(query, &near, config)
@@ -338,12 +363,11 @@ impl PlaceIndex {
         t.rebuild(&query.dct, &mut q);
         let q_spec = t.spectrum(&q);
         let mut stored = Vec::new();
-        let mut out: Vec<Candidate> = near
-            .iter()
-            .filter_map(|&(place, d2)| {
-                t.rebuild(&self.contents.dct[place * k..(place + 1) * k], &mut stored);
-                let (rotation_rad, profile_rms_m) = t.best_shift(&q, &q_spec, &stored);
-                let s = self.contents.config.sectors;
+        let s = self.contents.config.sectors;
+        let mut out: Vec<Candidate> = Vec::with_capacity(near.len() * config.rotations);
+        for &(place, d2) in near {
+            t.rebuild(&self.contents.dct[place * k..(place + 1) * k], &mut stored);
+            for (rotation_rad, profile_rms_m) in t.best_shifts(&q, &q_spec, &stored, config.rotations) {
                 let colour_distance = colour_distance(
                     &query.colour,
                     self.contents.colour_seen[place],
@@ -352,18 +376,23 @@ impl PlaceIndex {
                     config.min_shared_sectors,
                 );
                 if colour_distance.is_some_and(|c| c > config.max_colour_distance) {
-                    return None;
+                    continue;
                 }
-                Some(Candidate {
+                out.push(Candidate {
                     place,
                     rotation_rad,
                     profile_rms_m,
                     key_distance_m: d2.sqrt(),
                     colour_distance,
-                })
-            })
-            .collect();
-        out.sort_by(|a, b| a.profile_rms_m.total_cmp(&b.profile_rms_m).then(a.place.cmp(&b.place)));
+                });
+            }
+        }
+        out.sort_by(|a, b| {
+            a.profile_rms_m
+                .total_cmp(&b.profile_rms_m)
+                .then(a.place.cmp(&b.place))
+                .then(a.rotation_rad.total_cmp(&b.rotation_rad))
+        });
         out
     }
 }

@@ -48,7 +48,8 @@ pub mod synthetic;
 
 pub use index::{Candidate, IndexContents, PlaceIndex, PlaceMeta, QueryConfig};
 pub use signature::{
-    colour_distance, condition, ColourSectors, Signature, SignatureConfig, Transforms, KEY_DIMS, MAX_SAMPLES,
+    colour_distance, condition, dequantise_chroma, quantise_chroma, relative_chroma, ColourSectors,
+    Signature, SignatureConfig, Transforms, KEY_DIMS, MAX_SAMPLES,
 };
 pub use stored::StoredProfile;
 

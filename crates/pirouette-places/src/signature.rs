@@ -60,7 +60,10 @@ impl SignatureConfig {
             ));
         }
         if !(1..=self.samples).contains(&self.coefficients) {
-            return bad(format!("coefficients {} outside 1..={}", self.coefficients, self.samples));
+            return bad(format!(
+                "coefficients {} outside 1..={}",
+                self.coefficients, self.samples
+            ));
         }
         if !(1..=32).contains(&self.sectors) {
             return bad(format!("sectors {} outside 1..=32", self.sectors));
@@ -126,7 +129,9 @@ pub struct Transforms {
 
 impl std::fmt::Debug for Transforms {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Transforms").field("config", &self.config).finish()
+        f.debug_struct("Transforms")
+            .field("config", &self.config)
+            .finish()
     }
 }
 
@@ -148,7 +153,9 @@ impl Transforms {
             // circle, in the conditioned profile's sample index.
             let p = (ri as f64 + 0.5) * n as f64 / r as f64 - 0.5;
             for ki in 0..k {
-                basis.push((dct_norm(ki, n) * (PI * ki as f64 * (2.0 * p + 1.0) / (2 * n) as f64).cos()) as f32);
+                basis.push(
+                    (dct_norm(ki, n) * (PI * ki as f64 * (2.0 * p + 1.0) / (2 * n) as f64).cos()) as f32,
+                );
             }
         }
         let mut planner = FftPlanner::new();
@@ -208,7 +215,11 @@ impl Transforms {
     pub fn rebuild(&self, dct: &[f32], out: &mut Vec<f32>) {
         let k = self.config.coefficients;
         out.clear();
-        out.extend(self.basis.chunks_exact(k).map(|row| row.iter().zip(dct).map(|(b, c)| b * c).sum::<f32>()));
+        out.extend(
+            self.basis
+                .chunks_exact(k)
+                .map(|row| row.iter().zip(dct).map(|(b, c)| b * c).sum::<f32>()),
+        );
     }
 
     /// The spectrum of a rebuilt profile, for [`Transforms::best_shift`].
@@ -218,33 +229,54 @@ impl Transforms {
         spec
     }
 
-    /// The rotation of a query relative to a stored place that best lines
-    /// up their rebuilt profiles (`query[r] ≈ stored[r + s]`), radians in
-    /// `(-π, π]`, and the RMS difference there (metres). The query is
-    /// given by its rebuilt profile and [`Transforms::spectrum`]; the shift
-    /// is found by circular cross-correlation, refined by a parabola
-    /// through the three best shifts.
-    pub fn best_shift(&self, query: &[f32], query_spectrum: &[Complex<f32>], stored: &[f32]) -> (f64, f32) {
+    /// The rotations of a query relative to a stored place that best line
+    /// up their rebuilt profiles (`query[r] ≈ stored[r + s]`): the
+    /// deepest `count` local minima of the RMS difference over the
+    /// circular shifts, each radians in `(-π, π]` with the RMS difference
+    /// there (metres), best first. The query is given by its rebuilt
+    /// profile and [`Transforms::spectrum`]; the differences at every
+    /// shift come from one circular cross-correlation, and each minimum is
+    /// refined by a parabola through it and its neighbours.
+    pub fn best_shifts(
+        &self,
+        query: &[f32],
+        query_spectrum: &[Complex<f32>],
+        stored: &[f32],
+        count: usize,
+    ) -> Vec<(f64, f32)> {
         let r = query.len();
         let mut spec = self.spectrum(stored);
         for (s, q) in spec.iter_mut().zip(query_spectrum) {
             *s *= q.conj();
         }
         self.ifft.process(&mut spec);
-        let energy: f32 = query.iter().map(|v| v * v).sum::<f32>() + stored.iter().map(|v| v * v).sum::<f32>();
+        let energy: f32 =
+            query.iter().map(|v| v * v).sum::<f32>() + stored.iter().map(|v| v * v).sum::<f32>();
         // Sum of squared differences at each shift.
-        let ssd = |s: usize| (energy - 2.0 * spec[s % r].re / r as f32).max(0.0);
-        let best = (0..r).min_by(|&a, &b| ssd(a).total_cmp(&ssd(b))).unwrap_or(0);
-        let (lo, mid, hi) = (ssd(best + r - 1), ssd(best), ssd(best + 1));
-        let curvature = lo - 2.0 * mid + hi;
-        let offset = if curvature > 0.0 {
-            (0.5 * (lo - hi) / curvature).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        };
-        let rotation = pirouette_geom::wrap_angle((best as f64 + offset as f64) * TAU / r as f64);
-        let rms = (ssd(best) / r as f32).sqrt();
-        (rotation, rms)
+        let ssd: Vec<f32> = spec
+            .iter()
+            .map(|c| (energy - 2.0 * c.re / r as f32).max(0.0))
+            .collect();
+        let at = |s: usize| ssd[s % r];
+        let mut minima: Vec<usize> = (0..r)
+            .filter(|&s| at(s) <= at(s + r - 1) && at(s) < at(s + 1))
+            .collect();
+        minima.sort_by(|&a, &b| at(a).total_cmp(&at(b)).then(a.cmp(&b)));
+        minima.truncate(count);
+        minima
+            .into_iter()
+            .map(|best| {
+                let (lo, mid, hi) = (at(best + r - 1), at(best), at(best + 1));
+                let curvature = lo - 2.0 * mid + hi;
+                let offset = if curvature > 0.0 {
+                    (0.5 * (lo - hi) / curvature).clamp(-0.5, 0.5)
+                } else {
+                    0.0
+                };
+                let rotation = pirouette_geom::wrap_angle((best as f64 + f64::from(offset)) * TAU / r as f64);
+                (rotation, (mid / r as f32).sqrt())
+            })
+            .collect()
     }
 }
 
@@ -338,31 +370,50 @@ const MIN_SECTOR_TAGS: usize = 3;
 /// Steps of a stored log-chromaticity per unit (1/32 each).
 const CHROMA_STEPS: f64 = 32.0;
 
-/// Colour tags per sector. Each tagged bin's colour becomes its
-/// log-chromaticity `(ln R/G, ln B/G)`, which a change of brightness
-/// leaves alone and a change of the light's colour (each channel scaled
-/// by its own gain) shifts by the same amount everywhere; the sweep's mean
-/// is subtracted to remove that shift. Each sector keeps the median of its
-/// bins.
-fn colour_sectors(sweep: &Rop, sectors: usize) -> ColourSectors {
-    let tags: Vec<(usize, [f64; 2])> = (0..sweep.len())
-        .filter_map(|i| {
+/// Each bin's colour as its log-chromaticity `(ln R/G, ln B/G)` less the
+/// sweep's mean: a change of brightness leaves it alone, and a change of
+/// the light's colour (each channel scaled by its own gain), which shifts
+/// every bin's alike, is divided out with the mean. `None` where a bin has
+/// no reliable colour tag.
+pub fn relative_chroma(sweep: &Rop) -> Vec<Option<[f64; 2]>> {
+    let raw: Vec<Option<[f64; 2]>> = (0..sweep.len())
+        .map(|i| {
             let tag = sweep.reliable_colour(i)?;
-            let sector = (sweep.bin_centre_rad(i).rem_euclid(TAU) / TAU * sectors as f64) as usize % sectors;
             let [r, g, b] = tag.0.map(|c| f64::from(c.max(1)).ln());
-            Some((sector, [r - g, b - g]))
+            Some([r - g, b - g])
         })
         .collect();
-    let mut mean = [0f64; 2];
-    for (_, uv) in &tags {
-        for c in 0..2 {
-            mean[c] += uv[c] / tags.len() as f64;
-        }
-    }
+    let tagged = raw.iter().flatten().count().max(1) as f64;
+    let mean = raw
+        .iter()
+        .flatten()
+        .fold([0.0; 2], |m, uv| [m[0] + uv[0] / tagged, m[1] + uv[1] / tagged]);
+    raw.into_iter()
+        .map(|uv| uv.map(|[u, v]| [u - mean[0], v - mean[1]]))
+        .collect()
+}
+
+/// A relative log-chromaticity in one byte per component: steps of 1/32
+/// about 128 (±4 in all).
+pub fn quantise_chroma(uv: [f64; 2]) -> [u8; 2] {
+    uv.map(|c| (128.0 + c * CHROMA_STEPS).round().clamp(0.0, 255.0) as u8)
+}
+
+/// The relative log-chromaticity of [`quantise_chroma`]'s bytes.
+pub fn dequantise_chroma(q: [u8; 2]) -> [f64; 2] {
+    q.map(|c| (f64::from(c) - 128.0) / CHROMA_STEPS)
+}
+
+/// Colour tags per sector: the median of the [`relative_chroma`] of its
+/// bins.
+fn colour_sectors(sweep: &Rop, sectors: usize) -> ColourSectors {
     let mut per_sector: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); sectors];
-    for (sector, uv) in &tags {
-        per_sector[*sector].0.push(uv[0] - mean[0]);
-        per_sector[*sector].1.push(uv[1] - mean[1]);
+    for (i, uv) in relative_chroma(sweep).into_iter().enumerate() {
+        if let Some([u, v]) = uv {
+            let sector = (sweep.bin_centre_rad(i).rem_euclid(TAU) / TAU * sectors as f64) as usize % sectors;
+            per_sector[sector].0.push(u);
+            per_sector[sector].1.push(v);
+        }
     }
     let mut seen = 0u32;
     let chroma = per_sector
@@ -373,7 +424,7 @@ fn colour_sectors(sweep: &Rop, sectors: usize) -> ColourSectors {
                 return [0, 0];
             }
             seen |= 1 << j;
-            [median(&mut u), median(&mut v)].map(|c| (128.0 + c * CHROMA_STEPS).round().clamp(0.0, 255.0) as u8)
+            quantise_chroma([median(&mut u), median(&mut v)])
         })
         .collect();
     ColourSectors { seen, chroma }
@@ -388,10 +439,11 @@ fn median(values: &mut [f64]) -> f64 {
 /// query's colour sectors and a stored place's (its mask of sectors seen
 /// and its tags) at a rotation of the query
 /// by `rotation_rad` relative to it, over the query's tagged sectors: each
-/// against the nearer in colour of the two stored sectors it overlaps at
-/// that rotation (so that a rotation between sector edges does not split
-/// a surface's colour across a boundary); `None` where fewer than
-/// `min_shared` sectors can be compared.
+/// against the nearest in colour of the two stored sectors it overlaps at
+/// that rotation and their neighbours (so that neither a rotation between
+/// sector edges nor the change of bearings between two spots a few
+/// decimetres apart splits a surface's colour across a boundary); `None`
+/// where fewer than `min_shared` sectors can be compared.
 pub fn colour_distance(
     query: &ColourSectors,
     stored_seen: u32,
@@ -403,13 +455,15 @@ pub fn colour_distance(
     if n == 0 || stored.len() != n {
         return None;
     }
-    // Query sector `j` lies over stored sectors `j + shift` and the next.
-    let shift = (rotation_rad.rem_euclid(TAU) / TAU * n as f64).floor() as usize;
+    // Query sector `j` lies over stored sectors `j + shift` and the next;
+    // one more either side allows for the bearings' change between two
+    // spots a few decimetres apart.
+    let shift = (rotation_rad.rem_euclid(TAU) / TAU * n as f64).floor() as usize + n - 1;
     let (mut sum, mut shared) = (0u32, 0usize);
     for j in (0..n).filter(|j| query.seen >> j & 1 == 1) {
         let a = query.chroma[j];
-        let nearest = [(j + shift) % n, (j + shift + 1) % n]
-            .into_iter()
+        let nearest = (0..4)
+            .map(|o| (j + shift + o) % n)
             .filter(|s| stored_seen >> s & 1 == 1)
             .map(|s| u32::from(a[0].abs_diff(stored[s][0])) + u32::from(a[1].abs_diff(stored[s][1])))
             .min();

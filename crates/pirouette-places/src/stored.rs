@@ -3,10 +3,11 @@
 use pirouette_profile::Rop;
 use serde::{Deserialize, Serialize};
 
-/// A 360° profile at two bytes per bin: millimetres, with
+/// A 360° profile at four bytes per bin: the range in millimetres, with
 /// [`StoredProfile::UNSEEN`] for a bin never seen and
 /// [`StoredProfile::NO_RETURN`] for one with no obstacle in sight. Ranges
-/// round to the millimetre and are capped below 65.5 m.
+/// round to the millimetre and are capped below 65.5 m. Each bin's colour
+/// takes the other two bytes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StoredProfile {
     /// Bearing of the start of bin 0, radians.
@@ -17,6 +18,9 @@ pub struct StoredProfile {
     pub max_range_m: f32,
     /// Range per bin.
     pub range_mm: Vec<u16>,
+    /// Colour per bin, [`crate::relative_chroma`] quantised by
+    /// [`crate::quantise_chroma`]; `[0, 0]` where a bin has none.
+    pub chroma: Vec<[u8; 2]>,
 }
 
 impl StoredProfile {
@@ -25,8 +29,7 @@ impl StoredProfile {
     /// A bin seen with no obstacle in sight.
     pub const NO_RETURN: u16 = u16::MAX;
 
-    /// The compact form of a profile (colour and the floor's reach are
-    /// not kept).
+    /// The compact form of a profile (the floor's reach is not kept).
     pub fn from_rop(rop: &Rop) -> Self {
         let range_mm = rop
             .range_m
@@ -41,7 +44,12 @@ impl StoredProfile {
                 }
             })
             .collect();
+        let chroma = crate::relative_chroma(rop)
+            .into_iter()
+            .map(|uv| uv.map_or([0, 0], crate::quantise_chroma))
+            .collect();
         Self {
+            chroma,
             bearing_start_rad: rop.bearing_start_rad,
             bin_width_rad: rop.bin_width_rad,
             max_range_m: rop.max_range_m,
@@ -49,15 +57,16 @@ impl StoredProfile {
         }
     }
 
-    /// The profile back, at millimetre ranges; `None` where its settings
-    /// make no profile.
+    /// The profile back, at millimetre ranges, without colour (see
+    /// [`StoredProfile::chroma_of`]); `None` where its settings make no
+    /// profile.
     pub fn to_rop(&self) -> Option<Rop> {
         let usable = self.bearing_start_rad.is_finite()
             && self.bin_width_rad.is_finite()
             && self.bin_width_rad > 0.0
             && self.max_range_m.is_finite()
             && self.max_range_m > 0.0;
-        if !usable {
+        if !usable || self.chroma.len() != self.range_mm.len() {
             return None;
         }
         let mut rop = Rop::empty(
@@ -74,5 +83,15 @@ impl StoredProfile {
             };
         }
         Some(rop)
+    }
+}
+
+impl StoredProfile {
+    /// Bin `i`'s relative log-chromaticity, where it has one.
+    pub fn chroma_of(&self, i: usize) -> Option<[f64; 2]> {
+        self.chroma
+            .get(i)
+            .filter(|&&q| q != [0, 0])
+            .map(|&q| crate::dequantise_chroma(q))
     }
 }

@@ -20,7 +20,13 @@ pub fn random_sweep(rng: &mut impl Rng, limit_m: f32) -> Rop {
     let walls: [Option<ColourTag>; 4] = std::array::from_fn(|_| colour());
     let disc_colours: Vec<Option<ColourTag>> = (0..count).map(|_| colour()).collect();
     let discs: Vec<[f64; 3]> = (0..count)
-        .map(|_| [rng.random_range(0.0..w), rng.random_range(0.0..h), rng.random_range(0.05..0.2)])
+        .map(|_| {
+            [
+                rng.random_range(0.0..w),
+                rng.random_range(0.0..h),
+                rng.random_range(0.05..0.2),
+            ]
+        })
         .collect();
     let bins = 360;
     let mut rop = Rop::empty(-PI, TAU / bins as f64, bins, limit_m);
