@@ -9,6 +9,8 @@
 //!   the folder of a map (ROS `map_server` files, picture, poses).
 //! - [`read_g2o`], [`write_g2o`], [`G2oGraph`]: 2D pose graphs in g2o's
 //!   text format.
+//! - [`read_place_index`], [`write_place_index`]: place index files
+//!   (versioned header, checksum, postcard payload).
 //! - [`atomic_write`]: every file is written to a temporary file, then
 //!   renamed, so a crash never leaves a half-written file.
 //!
@@ -28,6 +30,7 @@ mod dataset;
 mod error;
 mod g2o;
 mod map_dir;
+mod places;
 mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
@@ -38,4 +41,8 @@ pub use dataset::{
 pub use error::IoError;
 pub use g2o::{parse_g2o, read_g2o, write_g2o, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
 pub use map_dir::{names as map_names, read_poses, read_ros_map, tum, write_map_dir, PoseRecord};
+pub use places::{
+    read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES, PLACE_INDEX_FORMAT,
+    PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,
+};
 pub use world::{FootprintHit, Obstacle, World};
