@@ -291,6 +291,13 @@ impl LikelihoodField {
         }
     }
 
+    /// The distance from a map point to the nearest obstacle point,
+    /// metres (`None` without points).
+    pub fn nearest_distance_m(&self, p: Point2) -> Option<f64> {
+        let tree = self.tree.as_ref()?;
+        Some(tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance.sqrt())
+    }
+
     /// The exact value at a map point, from its nearest obstacle point.
     pub fn exact(&self, p: Point2) -> f64 {
         let Some(tree) = &self.tree else {
