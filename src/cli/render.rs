@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 /// Arguments of `pirouette render`.
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
-    /// A built-in scene (field-pirouette, field-multi, room-multi) or a JSON scene file.
+    /// A built-in scene (field-pirouette, field-multi, room-multi; field-multi-b
+    /// and room-multi-b: their scenes on other routes and in other light) or a
+    /// JSON scene file.
     scene: String,
     /// Folder to write the dataset into.
     #[arg(long)]

@@ -20,7 +20,13 @@ pub enum SimError {
 }
 
 /// The names of the built-in scenes, whose files live in `datasets/scenes/`.
-pub const BUILTIN_SCENES: [&str; 3] = ["field-pirouette", "field-multi", "room-multi"];
+pub const BUILTIN_SCENES: [&str; 5] = [
+    "field-pirouette",
+    "field-multi",
+    "room-multi",
+    "field-multi-b",
+    "room-multi-b",
+];
 
 /// The most waypoints a route may have.
 pub const MAX_WAYPOINTS: usize = 10_000;
@@ -220,6 +226,8 @@ impl Scene {
             "field-pirouette" => include_str!("../../../datasets/scenes/field-pirouette.json"),
             "field-multi" => include_str!("../../../datasets/scenes/field-multi.json"),
             "room-multi" => include_str!("../../../datasets/scenes/room-multi.json"),
+            "field-multi-b" => include_str!("../../../datasets/scenes/field-multi-b.json"),
+            "room-multi-b" => include_str!("../../../datasets/scenes/room-multi-b.json"),
             _ => return None,
         };
         Some(serde_json::from_str(text).expect("built-in scene files are valid (tested)"))
