@@ -1,0 +1,348 @@
+//! Places: a dataset's sweeps filed in a place index, and a query sweep
+//! answered with the place it was taken at and its pose there.
+//!
+//! [`localise`] takes the index's candidates for a sweep
+//! ([`PlaceIndex::query`]: key search, shift search, colour), registers
+//! the sweep against each of the best few's stored profile (the
+//! registration maps use, started at the shift search's rotation), scores
+//! each by how much of the two views the other explains, and answers with
+//! the best where its score clears a threshold and no look-alike comes
+//! close.
+
+use crate::pipeline::{DatasetSweep, Swept};
+use anyhow::{Context, Result};
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use pirouette_geom::{Point2, Pose2};
+use pirouette_io::Dataset;
+use pirouette_places::{
+    relative_chroma, PlaceIndex, PlaceMeta, PlacesError, QueryConfig, Signature, StoredProfile,
+};
+use pirouette_profile::Rop;
+use pirouette_register::{register, LikelihoodField, PosePrior, RegisterConfig};
+
+/// How a query is answered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocaliseConfig {
+    /// The index search.
+    pub query: QueryConfig,
+    /// Candidates (a place at one rotation, best first) refined by
+    /// registration.
+    pub refined: usize,
+    /// The registration.
+    pub register: RegisterConfig,
+    /// Resolution of a stored profile's likelihood field, metres.
+    pub field_resolution_m: f64,
+    /// Spread of the registration's prior on position, metres: how far
+    /// from a stored place a query is looked for (a window of
+    /// [`RegisterConfig::window_sigmas`] of it).
+    pub sigma_position_m: f64,
+    /// Spread of the prior on heading about the shift search's rotation,
+    /// radians.
+    pub sigma_heading_rad: f64,
+    /// The least score of an answer: below it, "unknown place".
+    pub min_score: f64,
+    /// The least margin of the answer's score over a rival's (a place the
+    /// answer does not explain): below it, "ambiguous".
+    pub min_margin: f64,
+}
+
+impl Default for LocaliseConfig {
+    /// The index's defaults; the best 8 candidates refined (so that a
+    /// look-alike of the best is among them to be seen); registration as
+    /// maps use it, on a 1 cm field; a place looked for within ±45 cm
+    /// (σ 15 cm) and ±15° of the shift search (σ 5°); an answer trusted
+    /// where it explains at least 60 % of both views, 10 points more than
+    /// any rival.
+    fn default() -> Self {
+        Self {
+            query: QueryConfig::default(),
+            refined: 8,
+            register: RegisterConfig::default(),
+            field_resolution_m: 0.01,
+            sigma_position_m: 0.15,
+            sigma_heading_rad: 5f64.to_radians(),
+            min_score: 0.6,
+            min_margin: 0.1,
+        }
+    }
+}
+
+/// What became of a query.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// A place was found.
+    Known,
+    /// No stored place explains the sweep well enough.
+    Unknown,
+    /// A look-alike place explains it nearly as well.
+    Ambiguous,
+    /// The sweep saw too little of the circle to be looked up.
+    Incomplete,
+}
+
+impl Verdict {
+    /// The word written in JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Known => "known",
+            Verdict::Unknown => "unknown",
+            Verdict::Ambiguous => "ambiguous",
+            Verdict::Incomplete => "incomplete",
+        }
+    }
+}
+
+/// A refined candidate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlaceMatch {
+    /// The place's index.
+    pub place: usize,
+    /// The query's first frame in the place's first-frame frame.
+    pub pose: Pose2,
+    /// Share of the two views' obstacle points (each view's points within
+    /// two σ of the other's obstacles, averaged over both), 0-1.
+    pub score: f64,
+    /// The shift search's rotation, radians.
+    pub rotation_rad: f64,
+}
+
+/// The answer to one query sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Answer {
+    /// What became of it.
+    pub verdict: Verdict,
+    /// The best refined candidate (an answer only where `verdict` is
+    /// [`Verdict::Known`]).
+    pub best: Option<PlaceMatch>,
+    /// The best score less the best rival's (the best score where there
+    /// is no rival).
+    pub margin: f64,
+    /// Candidates the index returned.
+    pub candidates: usize,
+}
+
+impl Answer {
+    /// The trusted match, if any.
+    pub fn trusted(&self) -> Option<&PlaceMatch> {
+        self.best.as_ref().filter(|_| self.verdict == Verdict::Known)
+    }
+}
+
+/// Files every sweep of a run in the index, as places of the dataset
+/// named `name`. A sweep that saw too little of the circle is not filed;
+/// returns how many were filed and the ids of those left out.
+pub fn file_sweeps(index: &mut PlaceIndex, ds: &Dataset, swept: &Swept) -> Result<(usize, Vec<u32>)> {
+    let name = &ds.manifest.name;
+    let dataset = index.dataset_id(name);
+    let mut left_out = Vec::new();
+    let mut filed = 0;
+    for s in &swept.sweeps {
+        let signature = match index.transforms().signature(&s.sweep.rop) {
+            Ok(sig) => sig,
+            Err(PlacesError::IncompleteSweep { .. }) => {
+                left_out.push(s.id);
+                continue;
+            }
+            Err(e) => {
+                return Err(e).with_context(|| format!("{}: sweep {}", ds.manifest_path().display(), s.id))
+            }
+        };
+        let truth = ds.manifest.frames[s.frames[0]]
+            .truth
+            .map(|t| [t.x, t.y, t.theta_deg.to_radians()]);
+        let meta = PlaceMeta {
+            dataset,
+            sweep: s.id,
+            truth,
+            profile: Some(StoredProfile::from_rop(&s.sweep.rop)),
+        };
+        index
+            .insert(&signature, s.sweep.rop.max_range_m, meta)
+            .with_context(|| format!("{}: sweep {}", ds.manifest_path().display(), s.id))?;
+        filed += 1;
+    }
+    Ok((filed, left_out))
+}
+
+/// Answers one query sweep.
+pub fn localise(
+    index: &PlaceIndex,
+    sweep: &DatasetSweep,
+    config: &LocaliseConfig,
+) -> Result<Answer, PlacesError> {
+    let signature = match index.transforms().signature(&sweep.sweep.rop) {
+        Ok(s) => s,
+        Err(PlacesError::IncompleteSweep { .. }) => {
+            return Ok(Answer {
+                verdict: Verdict::Incomplete,
+                best: None,
+                margin: 0.0,
+                candidates: 0,
+            })
+        }
+        Err(e) => return Err(e),
+    };
+    index.check_signature(&signature, sweep.sweep.rop.max_range_m)?;
+    Ok(localise_signature(index, &signature, &sweep.sweep.rop, config))
+}
+
+/// Answers a query given its signature and 360° profile.
+pub fn localise_signature(
+    index: &PlaceIndex,
+    signature: &Signature,
+    rop: &Rop,
+    config: &LocaliseConfig,
+) -> Answer {
+    let candidates = index.query(signature, &config.query);
+    let query = View::of(rop, relative_chroma(rop), config);
+    let mut refined: Vec<(PlaceMatch, View)> = Vec::new();
+    for c in &candidates {
+        if refined.len() == config.refined {
+            break;
+        }
+        let Some(profile) = index.contents().meta[c.place].profile.as_ref() else {
+            continue;
+        };
+        let Some(stored) = profile.to_rop() else {
+            continue;
+        };
+        let chroma = (0..stored.len()).map(|i| profile.chroma_of(i)).collect();
+        let view = View::of(&stored, chroma, config);
+        if let Some(m) = refine(&query, &view, c.place, c.rotation_rad, config) {
+            refined.push((m, view));
+        }
+    }
+    refined.sort_by(|a, b| b.0.score.total_cmp(&a.0.score).then(a.0.place.cmp(&b.0.place)));
+    let Some((best, best_view)) = refined.first() else {
+        return Answer {
+            verdict: Verdict::Unknown,
+            best: None,
+            margin: 0.0,
+            candidates: candidates.len(),
+        };
+    };
+    // A rival is a place the best does not explain: one whose own answer
+    // puts its view where the best's view does not agree with it. A place
+    // that agrees is the same spot filed twice (a revisit).
+    let rival = refined[1..].iter().find(|(other, other_view)| {
+        let best_from_other = best.pose * other.pose.inverse();
+        best_view.explains(other_view, &best_from_other, config) < config.min_score
+    });
+    let margin = best.score - rival.map_or(0.0, |r| r.0.score);
+    let verdict = if best.score < config.min_score {
+        Verdict::Unknown
+    } else if margin < config.min_margin {
+        Verdict::Ambiguous
+    } else {
+        Verdict::Known
+    };
+    Answer {
+        verdict,
+        best: Some(*best),
+        margin,
+        candidates: candidates.len(),
+    }
+}
+
+/// Two colours of the same surface differ by less than this in relative
+/// log-chromaticity (`|Δ ln R/G| + |Δ ln B/G|`): a channel's ratio off by
+/// 65 %, far beyond what the light and the camera's noise do to one
+/// surface, and well short of what tells two paints apart.
+const SAME_COLOUR: f64 = 0.5;
+
+/// A view's obstacle points with their colours: all of them for
+/// registration, and one per registration cell (the first) for scoring,
+/// in a k-d tree.
+struct View {
+    points: Vec<Point2>,
+    field: LikelihoodField,
+    thinned: Vec<(Point2, Option<[f64; 2]>)>,
+    tree: ImmutableKdTree<f64, 2>,
+}
+
+impl View {
+    fn of(rop: &Rop, chroma: Vec<Option<[f64; 2]>>, config: &LocaliseConfig) -> Self {
+        let coloured: Vec<(Point2, Option<[f64; 2]>)> = (0..rop.len())
+            .filter_map(|i| {
+                let r = rop.reliable(i)?;
+                Some((
+                    Point2::from_polar(f64::from(r), rop.bin_centre_rad(i)),
+                    chroma.get(i).copied().flatten(),
+                ))
+            })
+            .collect();
+        let points: Vec<Point2> = coloured.iter().map(|c| c.0).collect();
+        let cell = config.register.spacing_m.max(config.field_resolution_m);
+        let mut seen = std::collections::HashSet::new();
+        let thinned: Vec<(Point2, Option<[f64; 2]>)> = coloured
+            .into_iter()
+            .filter(|(p, _)| seen.insert(((p.x / cell).floor() as i64, (p.y / cell).floor() as i64)))
+            .collect();
+        let coords: Vec<[f64; 2]> = thinned.iter().map(|(p, _)| [p.x, p.y]).collect();
+        let field = LikelihoodField::from_points(
+            &points,
+            config.field_resolution_m,
+            config.register.sigma_m,
+            config.register.epsilon,
+        );
+        Self {
+            points,
+            field,
+            thinned,
+            tree: ImmutableKdTree::new_from_slice(&coords),
+        }
+    }
+
+    /// Share of `other`'s points (one per cell) that, placed in this
+    /// view's frame by `this_from_other`, lie within two σ of one of this
+    /// view's points of the same colour (or of any point, where either
+    /// has no colour).
+    fn explains(&self, other: &View, this_from_other: &Pose2, config: &LocaliseConfig) -> f64 {
+        if other.thinned.is_empty() || self.thinned.is_empty() {
+            return 0.0;
+        }
+        let reach2 = (2.0 * config.register.sigma_m).powi(2);
+        let hits = other
+            .thinned
+            .iter()
+            .filter(|(p, colour)| {
+                let q = this_from_other.transform_point(*p);
+                let near = self.tree.nearest_one::<SquaredEuclidean>(&[q.x, q.y]);
+                if near.distance > reach2 {
+                    return false;
+                }
+                match (colour, self.thinned[near.item as usize].1) {
+                    (Some(a), Some(b)) => (a[0] - b[0]).abs() + (a[1] - b[1]).abs() < SAME_COLOUR,
+                    _ => true,
+                }
+            })
+            .count();
+        hits as f64 / other.thinned.len() as f64
+    }
+}
+
+/// Registers the query's points against a stored place's field, started
+/// at the shift search's rotation, and scores the result both ways.
+fn refine(
+    query: &View,
+    stored: &View,
+    place: usize,
+    rotation_rad: f64,
+    config: &LocaliseConfig,
+) -> Option<PlaceMatch> {
+    let prior = PosePrior {
+        mean: Pose2::new(0.0, 0.0, rotation_rad),
+        sigma_forward_m: config.sigma_position_m,
+        sigma_left_m: config.sigma_position_m,
+        sigma_theta_rad: config.sigma_heading_rad,
+    };
+    let reg = register(&stored.field, &query.points, &prior, &config.register).ok()?;
+    let forward = stored.explains(query, &reg.pose, config);
+    let backward = query.explains(stored, &reg.pose.inverse(), config);
+    Some(PlaceMatch {
+        place,
+        pose: reg.pose,
+        score: 0.5 * (forward + backward),
+        rotation_rad,
+    })
+}
