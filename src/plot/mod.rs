@@ -601,6 +601,61 @@ fn scale_bar(img: &mut RgbImage, px_per_m: f64) {
     );
 }
 
+/// The precision-recall curve of place queries as the score threshold
+/// varies: recall (right) against precision (up), both 0-1 with grid lines
+/// every 0.1, one dot per threshold joined in order of threshold, the
+/// threshold written beside every few dots.
+pub fn pr_figure(curve: &[(f64, f64, f64)], name: &str) -> RgbImage {
+    let (side, margin) = (400u32, 50u32);
+    let mut img = RgbImage::from_pixel(side + 2 * margin, side + 2 * margin, BACKGROUND);
+    let at = |recall: f64, precision: f64| {
+        (
+            margin as f32 + (recall.clamp(0.0, 1.0) * side as f64) as f32,
+            (margin + side) as f32 - (precision.clamp(0.0, 1.0) * side as f64) as f32,
+        )
+    };
+    for k in 0..=10 {
+        let v = k as f64 / 10.0;
+        draw_line_segment_mut(&mut img, at(v, 0.0), at(v, 1.0), GRID);
+        draw_line_segment_mut(&mut img, at(0.0, v), at(1.0, v), GRID);
+        if k % 2 == 0 {
+            let (x, y) = at(v, 0.0);
+            label_centred(&mut img, (x, y + 14.0), &format!("{v:.1}"), LABEL);
+            let (x, y) = at(0.0, v);
+            label_centred(&mut img, (x - 22.0, y), &format!("{v:.1}"), LABEL);
+        }
+    }
+    let (x, y) = at(0.5, 0.0);
+    label_centred(&mut img, (x, y + 34.0), "recall@1", LABEL);
+    let (x, y) = at(0.0, 1.0);
+    label_centred(&mut img, (x + 40.0, y - 20.0), "precision", LABEL);
+    for pair in curve.windows(2) {
+        draw_line_segment_mut(
+            &mut img,
+            at(pair[0].2, pair[0].1),
+            at(pair[1].2, pair[1].1),
+            MEASURED,
+        );
+    }
+    let every = curve.len().div_ceil(8).max(1);
+    for (k, &(t, p, r)) in curve.iter().enumerate() {
+        let (x, y) = at(r, p);
+        draw_filled_circle_mut(&mut img, (x as i32, y as i32), 4, MEASURED);
+        if k % every == 0 {
+            label_centred(&mut img, (x + 26.0, y - 12.0), &format!("{t:.2}"), TRUTH);
+        }
+    }
+    titled(
+        &img,
+        &format!("Place queries of {name}: precision and recall over the score threshold"),
+        &[
+            (Swatch::Dot(MEASURED), "one score threshold"),
+            (Swatch::Dot(TRUTH), "threshold (label)"),
+            (Swatch::Line(GRID), "grid: 0.1"),
+        ],
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -760,59 +815,4 @@ mod tests {
         assert!((12..=132).all(|x| *img.get_pixel(x, y) == ink));
         assert_ne!(*img.get_pixel(140, y), ink);
     }
-}
-
-/// The precision-recall curve of place queries as the score threshold
-/// varies: recall (right) against precision (up), both 0-1 with grid lines
-/// every 0.1, one dot per threshold joined in order of threshold, the
-/// threshold written beside every few dots.
-pub fn pr_figure(curve: &[(f64, f64, f64)], name: &str) -> RgbImage {
-    let (side, margin) = (400u32, 50u32);
-    let mut img = RgbImage::from_pixel(side + 2 * margin, side + 2 * margin, BACKGROUND);
-    let at = |recall: f64, precision: f64| {
-        (
-            margin as f32 + (recall.clamp(0.0, 1.0) * side as f64) as f32,
-            (margin + side) as f32 - (precision.clamp(0.0, 1.0) * side as f64) as f32,
-        )
-    };
-    for k in 0..=10 {
-        let v = k as f64 / 10.0;
-        draw_line_segment_mut(&mut img, at(v, 0.0), at(v, 1.0), GRID);
-        draw_line_segment_mut(&mut img, at(0.0, v), at(1.0, v), GRID);
-        if k % 2 == 0 {
-            let (x, y) = at(v, 0.0);
-            label_centred(&mut img, (x, y + 14.0), &format!("{v:.1}"), LABEL);
-            let (x, y) = at(0.0, v);
-            label_centred(&mut img, (x - 22.0, y), &format!("{v:.1}"), LABEL);
-        }
-    }
-    let (x, y) = at(0.5, 0.0);
-    label_centred(&mut img, (x, y + 34.0), "recall@1", LABEL);
-    let (x, y) = at(0.0, 1.0);
-    label_centred(&mut img, (x + 40.0, y - 20.0), "precision", LABEL);
-    for pair in curve.windows(2) {
-        draw_line_segment_mut(
-            &mut img,
-            at(pair[0].2, pair[0].1),
-            at(pair[1].2, pair[1].1),
-            MEASURED,
-        );
-    }
-    let every = curve.len().div_ceil(8).max(1);
-    for (k, &(t, p, r)) in curve.iter().enumerate() {
-        let (x, y) = at(r, p);
-        draw_filled_circle_mut(&mut img, (x as i32, y as i32), 4, MEASURED);
-        if k % every == 0 {
-            label_centred(&mut img, (x + 26.0, y - 12.0), &format!("{t:.2}"), TRUTH);
-        }
-    }
-    titled(
-        &img,
-        &format!("Place queries of {name}: precision and recall over the score threshold"),
-        &[
-            (Swatch::Dot(MEASURED), "one score threshold"),
-            (Swatch::Dot(TRUTH), "threshold (label)"),
-            (Swatch::Line(GRID), "grid: 0.1"),
-        ],
-    )
 }

@@ -89,7 +89,7 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
             if ex.edge_confirms(px, u, v, coasted, &edge) {
                 return ex.refine(px, u, v, pred, track.trend);
             }
-        } else if close
+        } else if (close
             && !steady
             && steady_below
             && ex.config.texture_ratio > 0.0
@@ -100,21 +100,19 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
                 (&both, ex.config.texture_ratio),
                 grey_sigma,
                 (&pred, &classifier),
-            )
-        {
-            return ex.refine(px, u, v, pred, track.trend);
-        } else if steady
-            && !faint_steady
-            && faint_below
-            && ex.config.faint_steps()
-            && ex.bright_edge_confirms(
-                px,
-                u,
-                v,
-                (&faint, ex.config.faint_texture_ratio),
-                grey_sigma,
-                (&pred, &classifier),
-            )
+            ))
+            || (steady
+                && !faint_steady
+                && faint_below
+                && ex.config.faint_steps()
+                && ex.bright_edge_confirms(
+                    px,
+                    u,
+                    v,
+                    (&faint, ex.config.faint_texture_ratio),
+                    grey_sigma,
+                    (&pred, &classifier),
+                ))
         {
             return ex.refine(px, u, v, pred, track.trend);
         }
