@@ -15,7 +15,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::{Point2, Pose2};
 use pirouette_io::Dataset;
 use pirouette_places::{
-    relative_chroma, PlaceIndex, PlaceMeta, PlacesError, QueryConfig, Signature, StoredProfile,
+    relative_chroma, Candidate, PlaceIndex, PlaceMeta, PlacesError, QueryConfig, Signature, StoredProfile,
 };
 use pirouette_profile::Rop;
 use pirouette_register::{register, LikelihoodField, PosePrior, RegisterConfig};
@@ -44,6 +44,11 @@ pub struct LocaliseConfig {
     /// The least margin of the answer's score over a rival's (a place the
     /// answer does not explain): below it, "ambiguous".
     pub min_margin: f64,
+    /// Where no candidate reaches [`Self::min_score`] at the shift search's
+    /// rotations, the first this many places are registered again from
+    /// headings all round the circle (a view a decimetre or more from the
+    /// stored spot can line up best at a wrong rotation of its profile).
+    pub fallback_places: usize,
 }
 
 impl Default for LocaliseConfig {
@@ -52,7 +57,8 @@ impl Default for LocaliseConfig {
     /// maps use it, on a 1 cm field; a place looked for within ±45 cm
     /// (σ 15 cm) and ±15° of the shift search (σ 5°); an answer trusted
     /// where it explains at least 60 % of both views, 10 points more than
-    /// any rival.
+    /// any rival; failing that, the 3 first places tried from every 4σ of
+    /// heading (20°) round the circle.
     fn default() -> Self {
         Self {
             query: QueryConfig::default(),
@@ -63,6 +69,7 @@ impl Default for LocaliseConfig {
             sigma_heading_rad: 5f64.to_radians(),
             min_score: 0.6,
             min_margin: 0.1,
+            fallback_places: 3,
         }
     }
 }
@@ -200,17 +207,19 @@ pub fn localise_signature(
         if refined.len() == config.refined {
             break;
         }
-        let Some(profile) = index.contents().meta[c.place].profile.as_ref() else {
+        let Some(view) = stored_view(index, c.place, config) else {
             continue;
         };
-        let Some(stored) = profile.to_rop() else {
-            continue;
-        };
-        let chroma = (0..stored.len()).map(|i| profile.chroma_of(i)).collect();
-        let view = View::of(&stored, chroma, config);
         if let Some(m) = refine(&query, &view, c.place, c.rotation_rad, config) {
             refined.push((m, view));
         }
+    }
+    if refined.iter().all(|(m, _)| m.score < config.min_score) {
+        // Each place tried all round replaces its tries at the shift
+        // search's rotations, which the search round the circle covers.
+        let again = all_round(index, &candidates, &query, config);
+        refined.retain(|(m, _)| again.iter().all(|(a, _)| a.place != m.place));
+        refined.extend(again);
     }
     refined.sort_by(|a, b| b.0.score.total_cmp(&a.0.score).then(a.0.place.cmp(&b.0.place)));
     let Some((best, best_view)) = refined.first() else {
@@ -319,6 +328,46 @@ impl View {
             .count();
         hits as f64 / other.thinned.len() as f64
     }
+}
+
+/// The view of a stored place, where the index kept its profile.
+fn stored_view(index: &PlaceIndex, place: usize, config: &LocaliseConfig) -> Option<View> {
+    let profile = index.contents().meta.get(place)?.profile.as_ref()?;
+    let stored = profile.to_rop()?;
+    let chroma = (0..stored.len()).map(|i| profile.chroma_of(i)).collect();
+    Some(View::of(&stored, chroma, config))
+}
+
+/// The first [`LocaliseConfig::fallback_places`] distinct candidate places,
+/// each registered from headings 4σ apart all round the circle; the best
+/// of each.
+fn all_round(
+    index: &PlaceIndex,
+    candidates: &[Candidate],
+    query: &View,
+    config: &LocaliseConfig,
+) -> Vec<(PlaceMatch, View)> {
+    let mut places: Vec<usize> = Vec::new();
+    for c in candidates {
+        if places.len() == config.fallback_places {
+            break;
+        }
+        if !places.contains(&c.place) {
+            places.push(c.place);
+        }
+    }
+    let step = (4.0 * config.sigma_heading_rad).max(1f64.to_radians());
+    let headings = (std::f64::consts::TAU / step).ceil() as usize;
+    places
+        .into_iter()
+        .filter_map(|place| {
+            let view = stored_view(index, place, config)?;
+            let best = (0..headings)
+                .filter_map(|k| refine(query, &view, place, k as f64 * step, config))
+                .max_by(|a, b| a.score.total_cmp(&b.score))?;
+            Some((best, view))
+        })
+        .collect()
 }
 
 /// Registers the query's points against a stored place's field, started
