@@ -7,6 +7,7 @@ mod datasets;
 mod graph;
 mod hostile;
 mod map;
+mod places;
 mod profile;
 mod sweep;
 mod truth;
