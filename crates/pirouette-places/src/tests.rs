@@ -109,6 +109,9 @@ fn the_tree_finds_what_a_scan_of_every_key_finds() {
         let rop = synthetic::random_sweep(&mut rng, synthetic::SYNTHETIC_LIMIT_M);
         let q = index.transforms().signature(&rop).unwrap();
         assert_eq!(index.query(&q, &config), index.query_brute(&q, &config));
+        for k in [1, 16, 300] {
+            assert_eq!(index.nearest_keys(&q.key, k), index.nearest_keys_brute(&q.key, k));
+        }
     }
 }
 
@@ -204,3 +207,4 @@ fn inconsistent_contents_are_refused() {
         Err(PlacesError::BadConfig { .. })
     ));
 }
+

@@ -17,6 +17,7 @@
 //! chromaticities are compared too.
 
 mod curve;
+pub mod fft;
 mod refine;
 mod signals;
 

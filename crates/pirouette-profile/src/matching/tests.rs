@@ -421,3 +421,43 @@ fn periodic_profiles_are_ambiguous() {
     let est = match_turn(&a, &a.clone(), 0.0, &MatchConfig::default());
     assert!(est.fallback && est.evidence == Evidence::Ambiguous, "{est:?}");
 }
+
+/// The FFT baseline finds a known turn between two 60° views of one
+/// scene (sampled at bin centres, so to within a bin), at different bin widths and with some
+/// bins unseen and some with no return; different bin widths are refused.
+#[test]
+fn fft_correlation_finds_a_known_turn() {
+    let scene = |bearing: f64| -> f32 {
+        let d = bearing.to_degrees().rem_euclid(360.0);
+        if (d % 37.0) < 8.0 {
+            0.35
+        } else if (d % 53.0) < 5.0 {
+            f32::INFINITY
+        } else {
+            (0.7 + 0.3 * (2.0 * bearing).sin()) as f32
+        }
+    };
+    let view = |heading_deg: f64, bin_deg: f64| {
+        let mut rop = Rop::covering(-30f64.to_radians(), 30f64.to_radians(), bin_deg.to_radians(), 0.9)
+            .expect("valid");
+        for i in 0..rop.len() {
+            rop.range_m[i] = scene(heading_deg.to_radians() + rop.bin_centre_rad(i));
+        }
+        rop.range_m[3] = f32::NAN;
+        rop
+    };
+    let mut fft = fft::FftCorrelation::new();
+    for bin_deg in [1.0, 0.25] {
+        let (before, after) = (view(40.0, bin_deg), view(68.6, bin_deg));
+        let turn = fft
+            .match_turn(&before, &after, 30f64.to_radians(), 15f64.to_radians(), 20f64.to_radians())
+            .expect("a turn");
+        assert!(
+            (turn.to_degrees() - 28.6).abs() < bin_deg,
+            "{bin_deg}°: {}",
+            turn.to_degrees()
+        );
+    }
+    let (before, after) = (view(40.0, 1.0), view(68.6, 0.5));
+    assert!(fft.match_turn(&before, &after, 0.5, 0.3, 0.3).is_none());
+}
