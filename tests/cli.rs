@@ -18,6 +18,7 @@ fn every_command_has_help() {
         vec!["places", "info", "--help"],
         vec!["localise", "--help"],
         vec!["eval", "places", "--help"],
+        vec!["bench", "--help"],
     ] {
         let out = pirouette(&args);
         assert!(out.status.success(), "{args:?}");

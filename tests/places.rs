@@ -197,3 +197,37 @@ fn bad_indexes_and_queries_are_refused_naming_the_file() {
         "enough of the circle",
     );
 }
+
+/// `bench --json`: one line per kind, the percentiles in order, the
+/// throughput that of the calls.
+#[test]
+fn bench_times_turns_and_place_queries() {
+    let ds = rendered("field-multi", 3);
+    let out = pirouette(&["bench", ds.to_str().unwrap(), "--repeat", "2", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let lines: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect();
+    let kinds: Vec<&str> = lines.iter().map(|l| l["kind"].as_str().unwrap()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "turn: direct search",
+            "turn: FFT correlation",
+            "place: index query",
+            "place: localise"
+        ]
+    );
+    for l in &lines {
+        let f = |k: &str| l[k].as_f64().unwrap();
+        assert!(f("calls") >= 2.0, "{l}");
+        assert!(
+            0.0 < f("p50_us") && f("p50_us") <= f("p95_us") && f("p95_us") <= f("p99_us"),
+            "{l}"
+        );
+        // Half the calls take at least the median, so the whole run takes
+        // at least half the calls times it: throughput × p50 ≤ 2.
+        assert!(f("per_s") > 0.0 && f("per_s") * f("p50_us") * 1e-6 <= 2.0, "{l}");
+    }
+}

@@ -12,6 +12,7 @@ macro_rules! outln {
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod camera;
 mod graph;
 mod map;
@@ -50,6 +51,10 @@ enum Command {
     /// Localise the sweeps of a dataset against a place index: the place
     /// and pose of each, or "unknown".
     Localise(places::LocaliseArgs),
+    /// Time matching on a dataset's own profiles: turn matches (direct
+    /// search and FFT correlation) and place queries, p50/p95/p99 and
+    /// throughput.
+    Bench(bench::BenchArgs),
     /// Pose graphs in g2o format.
     #[command(subcommand)]
     Graph(GraphCommand),
@@ -116,6 +121,7 @@ pub fn run() -> Result<()> {
         Command::Places(PlacesCommand::Build(a)) => places::build(a),
         Command::Places(PlacesCommand::Info(a)) => places::info(a),
         Command::Localise(a) => places::run_localise(a),
+        Command::Bench(a) => bench::bench(a),
         Command::Graph(GraphCommand::Optimise(a)) => graph::optimise(a),
         Command::Eval(EvalCommand::Profile(a)) => profile::eval_profile(a),
         Command::Eval(EvalCommand::Sweep(a)) => sweep::eval_sweep(a),

@@ -179,7 +179,7 @@ fn query_sweeps(
     Ok((ds, swept.sweeps))
 }
 
-fn sweep_with_bar(ds: &Dataset, options: &SweepOptions) -> Result<pipeline::Swept> {
+pub(super) fn sweep_with_bar(ds: &Dataset, options: &SweepOptions) -> Result<pipeline::Swept> {
     let config = options.pipeline()?;
     config.check()?;
     let bar = super::progress(ds.manifest.frames.len(), "profile");
