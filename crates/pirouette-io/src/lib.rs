@@ -42,7 +42,7 @@ pub use error::IoError;
 pub use g2o::{parse_g2o, read_g2o, write_g2o, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
 pub use map_dir::{names as map_names, read_poses, read_ros_map, tum, write_map_dir, PoseRecord};
 pub use places::{
-    read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES, PLACE_INDEX_FORMAT,
-    PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,
+    decode_place_index, read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES,
+    PLACE_INDEX_FORMAT, PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,
 };
 pub use world::{FootprintHit, Obstacle, World};

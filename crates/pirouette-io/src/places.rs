@@ -77,10 +77,16 @@ pub fn read_place_index(path: &Path) -> Result<(PlaceIndex, PlaceIndexHeader), I
             "place index is corrupt: its checksum does not match",
         ));
     }
-    let contents: IndexContents = postcard::from_bytes(&payload)
+    Ok((decode_place_index(path, &payload)?, header))
+}
+
+/// Decodes an index's payload (the bytes after the header, checksum
+/// verified) and checks the index for consistency; `path` names it in
+/// errors.
+pub fn decode_place_index(path: &Path, payload: &[u8]) -> Result<PlaceIndex, IoError> {
+    let contents: IndexContents = postcard::from_bytes(payload)
         .map_err(|e| IoError::invalid(path, format!("place index cannot be decoded: {e}")))?;
-    let index = PlaceIndex::from_contents(contents).map_err(|e| IoError::invalid(path, e.to_string()))?;
-    Ok((index, header))
+    PlaceIndex::from_contents(contents).map_err(|e| IoError::invalid(path, e.to_string()))
 }
 
 fn parse_header(
