@@ -207,4 +207,3 @@ fn inconsistent_contents_are_refused() {
         Err(PlacesError::BadConfig { .. })
     ));
 }
-

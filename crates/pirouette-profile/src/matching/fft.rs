@@ -85,8 +85,7 @@ impl FftCorrelation {
         let at = |k: i64| k.rem_euclid(n as i64) as usize;
         let cost = |k: i64| {
             let c = f64::from(count[at(k)].re);
-            (k.abs() < n as i64 / 2 && c >= least - 0.5 * n as f64)
-                .then(|| f64::from(ssd[at(k)].re) / c)
+            (k.abs() < n as i64 / 2 && c >= least - 0.5 * n as f64).then(|| f64::from(ssd[at(k)].re) / c)
         };
         let best = (centre - half..=centre + half)
             .filter_map(|k| cost(k).map(|c| (k, c)))

@@ -438,8 +438,8 @@ fn fft_correlation_finds_a_known_turn() {
         }
     };
     let view = |heading_deg: f64, bin_deg: f64| {
-        let mut rop = Rop::covering(-30f64.to_radians(), 30f64.to_radians(), bin_deg.to_radians(), 0.9)
-            .expect("valid");
+        let mut rop =
+            Rop::covering(-30f64.to_radians(), 30f64.to_radians(), bin_deg.to_radians(), 0.9).expect("valid");
         for i in 0..rop.len() {
             rop.range_m[i] = scene(heading_deg.to_radians() + rop.bin_centre_rad(i));
         }
@@ -450,7 +450,13 @@ fn fft_correlation_finds_a_known_turn() {
     for bin_deg in [1.0, 0.25] {
         let (before, after) = (view(40.0, bin_deg), view(68.6, bin_deg));
         let turn = fft
-            .match_turn(&before, &after, 30f64.to_radians(), 15f64.to_radians(), 20f64.to_radians())
+            .match_turn(
+                &before,
+                &after,
+                30f64.to_radians(),
+                15f64.to_radians(),
+                20f64.to_radians(),
+            )
             .expect("a turn");
         assert!(
             (turn.to_degrees() - 28.6).abs() < bin_deg,
