@@ -34,7 +34,9 @@ fn frames_by_motion(m: &Value) -> (usize, usize) {
     (forward, turn)
 }
 
-fn refused(args: &[&str], names: &str, says: &str) {
+/// Runs `args`, which must fail with exit 1 and a one-line error naming
+/// `names` and saying `says`.
+pub(crate) fn refused(args: &[&str], names: &str, says: &str) {
     let out = pirouette(args);
     assert!(!out.status.success(), "{args:?} was accepted");
     assert_eq!(

@@ -3,6 +3,7 @@
 //! against the truth by `eval places`; and its files and queries under bad
 //! input.
 
+use crate::hostile::refused;
 use crate::util::{pirouette, rendered, shared};
 use serde_json::Value;
 use std::path::Path;
@@ -116,16 +117,6 @@ fn shared_twins_are_localised() {
         let (_, summary) = build_and_eval(dir.path(), &data.join(name), &data.join(format!("{name}-b")));
         assert_found(&summary, name);
     }
-}
-
-fn refused(args: &[&str], names: &str, says: &str) {
-    let out = pirouette(args);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {:?}", out.status);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains(names) && err.contains(says),
-        "{args:?}: `{err}` should name {names} and say {says}"
-    );
 }
 
 /// Damaged, newer and foreign index files, and queries the index cannot

@@ -222,7 +222,7 @@ impl Transforms {
         );
     }
 
-    /// The spectrum of a rebuilt profile, for [`Transforms::best_shift`].
+    /// The spectrum of a rebuilt profile, for [`Transforms::best_shifts`].
     pub fn spectrum(&self, rebuilt: &[f32]) -> Vec<Complex<f32>> {
         let mut spec: Vec<Complex<f32>> = rebuilt.iter().map(|&v| Complex::new(v, 0.0)).collect();
         self.fft.process(&mut spec);
