@@ -59,11 +59,12 @@ pub fn read_place_index(path: &Path) -> Result<(PlaceIndex, PlaceIndexHeader), I
     let mut file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| IoError::io(path, e))?.len();
     let mut head = [0u8; PLACE_INDEX_HEADER_BYTES];
-    file.read_exact(&mut head).map_err(|_| {
-        IoError::invalid(
+    file.read_exact(&mut head).map_err(|e| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => IoError::invalid(
             path,
             format!("not a place index: {file_bytes} bytes, shorter than its header"),
-        )
+        ),
+        _ => IoError::io(path, e),
     })?;
     let header = parse_header(path, &head, file_bytes)?;
     let mut payload = Vec::new();
