@@ -113,6 +113,18 @@ fn the_tree_finds_what_a_scan_of_every_key_finds() {
             assert_eq!(index.nearest_keys(&q.key, k), index.nearest_keys_brute(&q.key, k));
         }
     }
+    // A stored key (found within the first fetch), one far from every
+    // place (the search falls back to a scan), and one far on the
+    // dimensions the tree leaves out (a wide ball searched in the tree).
+    let stored = index.contents().keys[17];
+    let far = stored.map(|v| v + 10.0);
+    let mut off_tree = stored;
+    off_tree[KEY_DIMS - 1] += 3.0;
+    for key in [stored, far, off_tree] {
+        for k in [1, 16, 300] {
+            assert_eq!(index.nearest_keys(&key, k), index.nearest_keys_brute(&key, k));
+        }
+    }
 }
 
 #[test]
