@@ -13,6 +13,7 @@
 //! - [`vision`]: floor segmentation and ROPs from images;
 //! - [`sim`]: the renderer of scenes into datasets;
 //! - [`frame`]: the back end's sensor-neutral input;
+//! - [`laser`]: CARMEN laser logs mapped by the same registration and grid;
 //! - [`pipeline`]: whole-dataset runs; [`mapping`]: maps of datasets;
 //!   [`eval`]: scores against truth.
 //!
@@ -38,6 +39,7 @@ pub use pirouette_vision as vision;
 pub mod camera_report;
 pub mod eval;
 pub mod frame;
+pub mod laser;
 pub mod localise;
 pub mod mapping;
 pub mod pipeline;

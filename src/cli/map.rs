@@ -73,7 +73,8 @@ impl MapOptions {
 /// Arguments of `pirouette map`.
 #[derive(clap::Args, Debug)]
 pub struct MapArgs {
-    /// Camera dataset folder (laser logs come later).
+    /// Camera dataset folder, or a CARMEN laser log (FLASER or
+    /// ROBOTLASER1 scans with ODOM lines).
     dataset: PathBuf,
     /// Folder for map.pgm, map.yaml, map.png, poses.json and poses.tum
     /// (created if missing; files in it are replaced atomically).
@@ -104,7 +105,7 @@ pub struct EvalMapArgs {
 fn open_camera_dataset(path: &Path) -> Result<Dataset> {
     if path.is_file() && path.file_name().is_some_and(|n| n != "dataset.json") {
         bail!(
-            "{}: laser logs are not supported by this version; give a camera dataset folder",
+            "{}: not a camera dataset (give its folder or dataset.json; a laser log maps with `pirouette map LOG`)",
             path.display()
         );
     }
@@ -211,6 +212,10 @@ pub fn evaluate(
 /// `pirouette map`.
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
+    if a.dataset.is_file() && pirouette::io::is_carmen_log(&a.dataset) {
+        let config = pirouette::laser::LaserConfig::default();
+        return super::laser::map(&a.dataset, &a.out, &config);
+    }
     let ds = open_camera_dataset(&a.dataset)?;
     super::check_output_dir(&a.out)?;
     let mapped = map_dataset(&ds, &a.options)?;

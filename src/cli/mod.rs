@@ -15,6 +15,7 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod camera;
 mod graph;
+mod laser;
 mod map;
 mod places;
 mod plots;
@@ -106,6 +107,11 @@ enum EvalCommand {
     /// answered wrongly, and the precision-recall curve over the score
     /// threshold (--out DIR: places-pr.png).
     Places(places::EvalPlacesArgs),
+    /// A laser log's map folder against the trajectory the log records:
+    /// absolute error after rigid alignment, and mean relative
+    /// translation and rotation errors between scans 1 m and 10 m apart
+    /// along the path, with dead reckoning from the raw odometry beside.
+    Laser(laser::EvalLaserArgs),
 }
 
 /// Runs the command line.
@@ -127,6 +133,7 @@ pub fn run() -> Result<()> {
         Command::Eval(EvalCommand::Sweep(a)) => sweep::eval_sweep(a),
         Command::Eval(EvalCommand::Map(a)) => map::eval_map(a),
         Command::Eval(EvalCommand::Places(a)) => places::eval_places(a),
+        Command::Eval(EvalCommand::Laser(a)) => laser::eval_laser(a),
     }
 }
 

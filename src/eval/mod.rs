@@ -2,6 +2,7 @@
 //!
 //! Profiles and sweeps here; trajectories and maps in [`map`].
 
+pub mod laser;
 pub mod map;
 
 use pirouette_camera::CameraModel;

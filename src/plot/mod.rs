@@ -416,20 +416,21 @@ pub fn titled(img: &RgbImage, title: &str, legend: &[(Swatch, &str)]) -> RgbImag
 
 /// [`map_picture`] with a title and its legend: what each colour and
 /// mark means, and how the map frame's axes lie (+x right, +y up).
+/// Without sweeps (a laser log's map), the sweep mark is left out of the
+/// legend.
 pub fn map_figure(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2], title: &str) -> RgbImage {
-    titled(
-        &map_picture(map, frames, sweeps),
-        title,
-        &[
-            (Swatch::Fill(Rgb([255, 255, 255])), "free floor"),
-            (Swatch::Fill(Rgb([0, 0, 0])), "obstacle"),
-            (Swatch::Fill(Rgb([190, 190, 190])), "unknown"),
-            (Swatch::Line(Rgb([30, 90, 220])), "robot path"),
-            (Swatch::Dot(MEASURED), "sweep spot, tick = heading"),
-            (Swatch::Dot(TRUTH), "first frame: map origin, facing +x"),
-            (Swatch::Line(LABEL), "map axes: +x right, +y up"),
-        ],
-    )
+    let mut legend = vec![
+        (Swatch::Fill(Rgb([255, 255, 255])), "free floor"),
+        (Swatch::Fill(Rgb([0, 0, 0])), "obstacle"),
+        (Swatch::Fill(Rgb([190, 190, 190])), "unknown"),
+        (Swatch::Line(Rgb([30, 90, 220])), "robot path"),
+    ];
+    if !sweeps.is_empty() {
+        legend.push((Swatch::Dot(MEASURED), "sweep spot, tick = heading"));
+    }
+    legend.push((Swatch::Dot(TRUTH), "first frame: map origin, facing +x"));
+    legend.push((Swatch::Line(LABEL), "map axes: +x right, +y up"));
+    titled(&map_picture(map, frames, sweeps), title, &legend)
 }
 
 /// [`rop_diagram`] with a title naming the frame and its legend.

@@ -9,6 +9,7 @@
 //!   the folder of a map (ROS `map_server` files, picture, poses).
 //! - [`read_g2o`], [`write_g2o`], [`G2oGraph`]: 2D pose graphs in g2o's
 //!   text format.
+//! - [`CarmenReader`], [`LaserScan`]: CARMEN laser logs, streamed.
 //! - [`read_place_index`], [`write_place_index`]: place index files
 //!   (versioned header, checksum, postcard payload).
 //! - [`atomic_write`]: every file is written to a temporary file, then
@@ -26,6 +27,7 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod atomic;
+mod carmen;
 mod dataset;
 mod error;
 mod g2o;
@@ -34,6 +36,7 @@ mod places;
 mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
+pub use carmen::{is_carmen_log, CarmenReader, LaserScan, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
 pub use dataset::{
     limits, CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
     FORMAT_VERSION,

@@ -58,6 +58,17 @@ impl PoseRecord {
         }
     }
 
+    /// The record of a laser scan (its position among the log's laser
+    /// lines and its timestamp), to a micrometre and a microdegree.
+    pub fn scan(scan: usize, t: f64, pose: &Pose2) -> Self {
+        Self {
+            image: None,
+            scan: Some(scan),
+            t: Some(t),
+            ..Self::frame("", pose)
+        }
+    }
+
     /// The pose.
     pub fn pose(&self) -> Pose2 {
         Pose2::from_deg(self.x, self.y, self.theta_deg)
