@@ -6,12 +6,16 @@
 //! holds the poses and a local map, never the log.
 
 use crate::geom::{Point2, Pose2};
+use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use crate::grid::{GridConfig, OccupancyGrid};
 use crate::io::{CarmenReader, IoError, LaserScan};
+use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
 use crate::profile::Rop;
-use crate::register::{endpoints, far_points, register, LikelihoodField, PosePrior, RegisterConfig};
+use crate::register::{
+    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig,
+};
 use anyhow::{bail, Context, Result};
-use std::collections::VecDeque;
+use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 
 /// How far raw odometry may stray, one standard deviation.
@@ -72,6 +76,62 @@ pub struct LaserConfig {
     pub unknown_step_m: f64,
     /// ... and in heading (radians, one σ).
     pub unknown_step_rad: f64,
+    /// Loop closure.
+    pub loops: LoopConfig,
+}
+
+/// Settings of loop closure: how revisits are searched, and when a match
+/// becomes an edge of the pose graph.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopConfig {
+    /// Every this many scans, the scan is searched for among the earlier
+    /// ones (0: no loop closure).
+    pub every_scans: usize,
+    /// Only scans at least this far back along the path, metres (nearer
+    /// ones are in the local map already).
+    pub min_separation_m: f64,
+    /// Scans within this distance of the estimated pose are candidates,
+    /// metres ...
+    pub radius_m: f64,
+    /// ... widened by this share of the path since the candidate (drift
+    /// grows with it) ...
+    pub radius_per_m: f64,
+    /// ... up to this, metres.
+    pub max_radius_m: f64,
+    /// Heading spread of the search, radians (one σ; searched ±3σ).
+    pub sigma_rad: f64,
+    /// A candidate's map is its scan and this many on each side.
+    pub anchor_scans: usize,
+    /// At most this many candidates per search (the nearest, each at
+    /// least `min_separation_m` along the path from the others).
+    pub max_candidates: usize,
+    /// A match counts when at least this share of the scan's endpoints
+    /// lie on the candidate's map ...
+    pub min_matched_share: f64,
+    /// ... and no rival pose scores within this many nats of the best.
+    pub min_rival_gap_ln: f64,
+}
+
+impl Default for LoopConfig {
+    /// Every 5th scan searched among scans 8 m or more back along the
+    /// path, within 0.5 m plus 2 % of the path since (at most 3 m) and
+    /// ±15° of the estimate, against the candidate and 10 scans each side;
+    /// up to 2 candidates; a match with 60 % of the endpoints on the map
+    /// and no rival within 10 nats.
+    fn default() -> Self {
+        Self {
+            every_scans: 5,
+            min_separation_m: 8.0,
+            radius_m: 0.5,
+            radius_per_m: 0.02,
+            max_radius_m: 3.0,
+            sigma_rad: 5f64.to_radians(),
+            anchor_scans: 10,
+            max_candidates: 2,
+            min_matched_share: 0.6,
+            min_rival_gap_ln: 10.0,
+        }
+    }
 }
 
 impl Default for LaserConfig {
@@ -102,6 +162,7 @@ impl Default for LaserConfig {
             odometry: OdometryNoise::default(),
             unknown_step_m: 0.8,
             unknown_step_rad: 25f64.to_radians(),
+            loops: LoopConfig::default(),
         }
     }
 }
@@ -128,8 +189,8 @@ pub struct ScanPose {
 /// A mapped log.
 #[derive(Debug)]
 pub struct LaserMap {
-    /// Every scan, in log order.
-    pub scans: Vec<ScanPose>,
+    /// The scans' poses and the loops closed.
+    pub registered: RegisteredLog,
     /// The occupancy grid.
     pub grid: OccupancyGrid,
 }
@@ -172,28 +233,6 @@ pub fn step_prior(previous: &Pose2, odometry: Option<&Pose2>, config: &LaserConf
     }
 }
 
-/// The local map: the endpoints of the last scans, in the map frame.
-struct LocalMap {
-    scans: VecDeque<Vec<Point2>>,
-    capacity: usize,
-}
-
-impl LocalMap {
-    fn field(&self, config: &LaserConfig) -> LikelihoodField {
-        let points: Vec<Point2> = self.scans.iter().flatten().copied().collect();
-        let r = &config.register;
-        LikelihoodField::from_points(&points, config.field_resolution_m, r.sigma_m, r.epsilon)
-    }
-
-    fn push(&mut self, pose: &Pose2, points: &[Point2]) {
-        if self.scans.len() == self.capacity {
-            self.scans.pop_front();
-        }
-        self.scans
-            .push_back(points.iter().map(|p| pose.transform_point(*p)).collect());
-    }
-}
-
 /// Checks the settings before any line is read.
 pub fn check_config(config: &LaserConfig) -> Result<()> {
     let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -217,60 +256,287 @@ pub fn check_config(config: &LaserConfig) -> Result<()> {
     Ok(())
 }
 
-/// Registers every scan of a log: the poses, in log order. `progress` is
-/// called once per scan.
-pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> Result<Vec<ScanPose>> {
+/// A loop closure: a scan matched against the map of an earlier one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopClosure {
+    /// The earlier scan.
+    pub from: usize,
+    /// The scan that came back.
+    pub to: usize,
+    /// Whether the pose graph kept it (a match the rest of the graph
+    /// contradicts is dropped).
+    pub kept: bool,
+}
+
+/// A registered log: every scan's pose and the loops closed.
+#[derive(Debug, Clone)]
+pub struct RegisteredLog {
+    /// Every scan, in log order.
+    pub scans: Vec<ScanPose>,
+    /// The loop closures accepted by matching, kept or dropped by the graph.
+    pub loops: Vec<LoopClosure>,
+    /// Searches for a revisit made.
+    pub loop_searches: usize,
+}
+
+/// The running state of registration: each scan's thinned endpoints (in
+/// its own frame, for the local map and loop searches), the poses, the
+/// path length to each, and the pose graph's edges.
+struct Mapper<'c> {
+    config: &'c LaserConfig,
+    points: Vec<Vec<Point2>>,
+    poses: Vec<Pose2>,
+    along_m: Vec<f64>,
+    edges: Vec<GraphEdge>,
+    loops: Vec<(LoopClosure, usize)>,
+    searches: usize,
+}
+
+/// The least spread of a step's or a loop's measured relative pose, one
+/// σ: registration's posterior can claim less than a laser's range noise
+/// and the local map's own error support.
+const EDGE_FLOOR_M: f64 = 0.01;
+/// The same for heading, radians.
+const EDGE_FLOOR_RAD: f64 = 0.004;
+
+impl<'c> Mapper<'c> {
+    /// The likelihood field of scans `range` at their current poses.
+    fn field(&self, range: std::ops::Range<usize>) -> LikelihoodField {
+        let points: Vec<Point2> = range
+            .flat_map(|k| {
+                self.points[k]
+                    .iter()
+                    .map(move |p| self.poses[k].transform_point(*p))
+            })
+            .collect();
+        let r = &self.config.register;
+        LikelihoodField::from_points(&points, self.config.field_resolution_m, r.sigma_m, r.epsilon)
+    }
+
+    /// An edge `i → j` measuring `j`'s registered pose `pose_j` (with its
+    /// world covariance) in the frame of `i`'s current pose.
+    fn edge(
+        &self,
+        i: usize,
+        j: usize,
+        pose_j: &Pose2,
+        covariance: &Matrix3<f64>,
+        kernel: Kernel,
+    ) -> GraphEdge {
+        let (s, c) = self.poses[i].theta.sin_cos();
+        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let floor = Matrix3::from_diagonal(&Vector3::new(
+            EDGE_FLOOR_M.powi(2),
+            EDGE_FLOOR_M.powi(2),
+            EDGE_FLOOR_RAD.powi(2),
+        ));
+        let local = r.transpose() * covariance * r + floor;
+        let info = local
+            .try_inverse()
+            .unwrap_or_else(|| floor.map(|v| if v > 0.0 { 1.0 / v } else { 0.0 }));
+        let mut e = MeasuredEdge {
+            i,
+            j,
+            z: self.poses[i].between(pose_j),
+            info: 0.5 * (info + info.transpose()),
+        }
+        .to_graph();
+        e.kernel = kernel;
+        e
+    }
+
+    /// Registers scan `k` (its endpoints already stored) after the
+    /// previous one, with `odometry` as the prior.
+    fn place(&mut self, k: usize, odometry: Option<&Pose2>, label: &dyn Fn() -> String) -> Result<bool> {
+        let config = self.config;
+        let prior = step_prior(&self.poses[k - 1], odometry, config);
+        let field = self.field(k.saturating_sub(config.local_scans)..k);
+        let reg = register(&field, &self.points[k], &prior, &config.register).with_context(label)?;
+        self.poses.push(reg.pose);
+        let step = self.poses[k - 1].between(&reg.pose).translation().norm();
+        self.along_m.push(self.along_m[k - 1] + step);
+        let edge = self.edge(k - 1, k, &reg.pose, &reg.covariance, Kernel::Squared);
+        self.edges.push(edge);
+        Ok(reg.accepted)
+    }
+
+    /// Earlier scans that scan `k` may be revisiting, nearest first.
+    fn loop_candidates(&self, k: usize) -> Vec<(usize, f64)> {
+        let c = &self.config.loops;
+        let here = self.poses[k].translation();
+        let mut near: Vec<(usize, f64, f64)> = (0..k)
+            .filter(|&j| self.along_m[k] - self.along_m[j] >= c.min_separation_m)
+            .filter_map(|j| {
+                let d = self.poses[j].translation();
+                let dist = (d.x - here.x).hypot(d.y - here.y);
+                let radius =
+                    (c.radius_m + c.radius_per_m * (self.along_m[k] - self.along_m[j])).min(c.max_radius_m);
+                (dist <= radius).then_some((j, dist, radius))
+            })
+            .collect();
+        near.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let mut chosen: Vec<(usize, f64)> = Vec::new();
+        for (j, _, radius) in near {
+            if chosen.len() == c.max_candidates {
+                break;
+            }
+            if chosen
+                .iter()
+                .all(|&(o, _)| (self.along_m[o] - self.along_m[j]).abs() >= c.min_separation_m)
+            {
+                chosen.push((j, radius));
+            }
+        }
+        chosen
+    }
+
+    /// Searches earlier scans for the place of scan `k`; each match found
+    /// becomes a loop edge. Whether any did.
+    fn close_loops(&mut self, k: usize) -> Result<bool> {
+        let config = self.config;
+        let c = &config.loops;
+        let mut found = false;
+        for (j, radius) in self.loop_candidates(k) {
+            self.searches += 1;
+            let lo = j.saturating_sub(c.anchor_scans);
+            let hi = (j + c.anchor_scans + 1).min(k);
+            // Only scans well back along the path: the map of the past.
+            let hi = (lo..hi)
+                .find(|&m| self.along_m[k] - self.along_m[m] < c.min_separation_m)
+                .unwrap_or(hi);
+            let field = self.field(lo..hi);
+            let prior = PosePrior {
+                mean: self.poses[k],
+                sigma_forward_m: radius / 3.0,
+                sigma_left_m: radius / 3.0,
+                sigma_theta_rad: c.sigma_rad,
+            };
+            let reg_config = RegisterConfig {
+                max_window_m: radius,
+                ..config.register.clone()
+            };
+            let reg = register(&field, &self.points[k], &prior, &reg_config)?;
+            let share = reg.matched as f64 / reg.points.max(1) as f64;
+            let rival_far = reg.rival.is_none_or(|r| r.below_best_ln >= c.min_rival_gap_ln);
+            if reg.accepted && share >= c.min_matched_share && rival_far {
+                let edge = self.edge(j, k, &reg.pose, &reg.covariance, Kernel::Cauchy { c: 1.0 });
+                self.edges.push(edge);
+                self.loops.push((
+                    LoopClosure {
+                        from: j,
+                        to: k,
+                        kept: true,
+                    },
+                    self.edges.len() - 1,
+                ));
+                found = true;
+            }
+        }
+        Ok(found)
+    }
+
+    /// Solves the pose graph of the scans so far, drops the loop edges the
+    /// solution contradicts and solves again; the poses follow.
+    fn optimise(&mut self) {
+        let mut graph = PoseGraph::new(self.poses.clone());
+        graph.edges.clone_from(&self.edges);
+        let config = OptimiseConfig {
+            max_iterations: 20,
+            ..OptimiseConfig::default()
+        };
+        if optimise(&mut graph, &config).is_err() {
+            return;
+        }
+        let mut dropped = false;
+        for (closure, e) in self.loops.iter_mut().filter(|(l, _)| l.kept) {
+            let edge = &graph.edges[*e];
+            if edge.chi2(&graph.poses[edge.from], &graph.poses[edge.to]) > EDGE_GATE {
+                closure.kept = false;
+                // Kept in place (indices stay valid), with no weight.
+                graph.edges[*e].information = [[1e-12, 0.0, 0.0], [0.0, 1e-12, 0.0], [0.0, 0.0, 1e-12]];
+                self.edges[*e].information = graph.edges[*e].information;
+                dropped = true;
+            }
+        }
+        if dropped && optimise(&mut graph, &config).is_err() {
+            return;
+        }
+        self.poses = graph.poses;
+    }
+}
+
+/// Registers every scan of a log against a local map of the scans before
+/// it, closing loops where it comes back (see [`LoopConfig`]): the poses
+/// in log order. `progress` is called once per scan.
+pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> Result<RegisteredLog> {
     check_config(config)?;
-    let mut local = LocalMap {
-        scans: VecDeque::new(),
-        capacity: config.local_scans,
+    let mut m = Mapper {
+        config,
+        points: Vec::new(),
+        poses: Vec::new(),
+        along_m: Vec::new(),
+        edges: Vec::new(),
+        loops: Vec::new(),
+        searches: 0,
     };
-    let mut out: Vec<ScanPose> = Vec::new();
+    let mut meta: Vec<ScanPose> = Vec::new();
     // The log's frame to the map frame: the first scan's recorded pose.
-    let mut origin = None;
+    let mut origin = Pose2::IDENTITY;
     for scan in CarmenReader::open(path)? {
         let scan = scan?;
+        let k = meta.len();
         let rop = scan_profile(&scan, config.max_range_m);
         let mut points = endpoints(&rop);
         points.extend(far_points(&rop, config.reach_m));
-        let (pose, dead_reckoning, registered) = match out.last() {
+        m.points.push(thin_points(
+            &points,
+            config.register.spacing_m.max(config.field_resolution_m),
+        ));
+        let (dead_reckoning, registered) = match meta.last() {
             None => {
-                origin = Some(scan.recorded);
-                (Pose2::default(), Pose2::default(), true)
+                origin = scan.recorded;
+                m.poses.push(Pose2::IDENTITY);
+                m.along_m.push(0.0);
+                (Pose2::IDENTITY, true)
             }
             Some(previous) => {
-                let prior = step_prior(&previous.pose, scan.odometry.as_ref(), config);
-                let field = local.field(config);
-                let reg = register(&field, &points, &prior, &config.register).with_context(|| {
-                    format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line)
-                })?;
-                let dead = previous.dead_reckoning * scan.odometry.unwrap_or_default();
-                (reg.pose, dead, reg.accepted)
+                let label = || format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line);
+                let registered = m.place(k, scan.odometry.as_ref(), &label)?;
+                (
+                    previous.dead_reckoning * scan.odometry.unwrap_or_default(),
+                    registered,
+                )
             }
         };
-        local.push(&pose, &points);
-        let recorded = match origin {
-            Some(o) => o.between(&scan.recorded),
-            None => scan.recorded,
-        };
-        out.push(ScanPose {
+        meta.push(ScanPose {
             scan: scan.scan,
             t: scan.t,
-            pose,
-            recorded,
+            pose: Pose2::IDENTITY,
+            recorded: origin.between(&scan.recorded),
             dead_reckoning,
             odometry: scan.odometry.is_some(),
             registered,
         });
+        let every = config.loops.every_scans;
+        if every > 0 && k > 0 && k % every == 0 && m.close_loops(k)? {
+            m.optimise();
+        }
         progress();
     }
-    if out.is_empty() {
+    if meta.is_empty() {
         bail!(
             "{}: no laser scan (FLASER or ROBOTLASER1 line) in the log",
             path.display()
         );
     }
-    Ok(out)
+    for (s, p) in meta.iter_mut().zip(&m.poses) {
+        s.pose = *p;
+    }
+    Ok(RegisteredLog {
+        scans: meta,
+        loops: m.loops.into_iter().map(|(l, _)| l).collect(),
+        loop_searches: m.searches,
+    })
 }
 
 /// The grid of a log's scans at the given poses (one per scan, in log
@@ -303,10 +569,10 @@ pub fn grid_of_log(path: &Path, poses: &[Pose2], config: &LaserConfig) -> Result
 /// Maps a log: registration, then the grid. `progress` is called once per
 /// scan registered.
 pub fn map_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> Result<LaserMap> {
-    let scans = register_log(path, config, progress)?;
-    let poses: Vec<Pose2> = scans.iter().map(|s| s.pose).collect();
+    let registered = register_log(path, config, progress)?;
+    let poses: Vec<Pose2> = registered.scans.iter().map(|s| s.pose).collect();
     let grid = grid_of_log(path, &poses, config)?;
-    Ok(LaserMap { scans, grid })
+    Ok(LaserMap { registered, grid })
 }
 
 /// The laser scans of a log, counted without keeping them.

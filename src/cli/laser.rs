@@ -27,7 +27,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
     bar.finish_and_clear();
     write(log, &mapped, out)?;
     let seconds = start.elapsed().as_secs_f64();
-    let scans = &mapped.scans;
+    let scans = &mapped.registered.scans;
     let unregistered = scans.iter().filter(|s| !s.registered).count();
     let no_odometry = scans.iter().skip(1).filter(|s| !s.odometry).count();
     let path_m: f64 = scans
@@ -43,6 +43,13 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
             ", peak memory {:.0} MB",
             b as f64 / 1e6
         ))
+    )?;
+    let loops = &mapped.registered.loops;
+    let kept = loops.iter().filter(|l| l.kept).count();
+    outln!(
+        "{kept} loops closed ({} revisit searches; {} matches dropped as inconsistent with the rest of the graph)",
+        mapped.registered.loop_searches,
+        loops.len() - kept
     )?;
     if unregistered > 0 {
         outln!("{unregistered} scans matched too little of the map and kept their odometry")?;
@@ -65,7 +72,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
 /// Writes the map folder of a mapped log.
 fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let ros = RosMap::from_grid(&mapped.grid);
-    let poses: Vec<Pose2> = mapped.scans.iter().map(|s| s.pose).collect();
+    let poses: Vec<Pose2> = mapped.registered.scans.iter().map(|s| s.pose).collect();
     let name = log
         .file_name()
         .map_or_else(|| log.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -78,6 +85,7 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let mut png = Vec::new();
     picture.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     let records: Vec<PoseRecord> = mapped
+        .registered
         .scans
         .iter()
         .map(|s| PoseRecord::scan(s.scan, s.t, &s.pose))

@@ -23,7 +23,7 @@ impl Edge {
     /// The edge for [`pirouette_graph`], whose residual is taken in `z`'s
     /// frame (`z⁻¹ · xᵢ⁻¹ · xⱼ`): the information turned into that frame,
     /// so that the cost of any poses is the same.
-    fn to_graph(self) -> GraphEdge {
+    pub(crate) fn to_graph(self) -> GraphEdge {
         let (s, c) = self.z.theta.sin_cos();
         // The residual in i's frame is R(θ_z) times the one in z's frame.
         let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
@@ -41,7 +41,7 @@ impl Edge {
 
 /// An edge whose squared Mahalanobis residual exceeds this after the first
 /// solve (three degrees of freedom, 99.9 %) is dropped: a wrong match.
-const EDGE_GATE: f64 = 16.27;
+pub(crate) const EDGE_GATE: f64 = 16.27;
 
 /// The poses (the first held, which fixes the frame) that agree best with
 /// `edges` in the least-squares sense: Gauss-Newton from the given poses

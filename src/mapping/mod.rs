@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 mod chain;
 mod fields;
-mod graph;
+pub(crate) mod graph;
 
 use chain::chain_headings;
 use fields::{field_in, field_of, frame_fields, seen_by};
