@@ -6,6 +6,7 @@ mod cli;
 mod datasets;
 mod graph;
 mod hostile;
+mod laser;
 mod map;
 mod places;
 mod profile;
