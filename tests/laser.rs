@@ -258,6 +258,12 @@ fn bad_laser_logs_are_refused_naming_the_file() {
             "bad.log:2",
         ),
         ("ODOM 0 0 0 0 0 0 0 h 0\nNEFF 3\n", "no laser scan"),
+        ("", "no laser scan"),
+        ("FLASER 2 1 nan 0 0 0 0 0 0 0 h 0\n", "not a finite number"),
+        ("FLASER 2 1 1 1e300 0 0 0 0 0 0 h 0\n", "out of range"),
+        ("FLASER 4000000000 1 1\n", "beam count"),
+        ("FLASER 2 1 1 0 0 0 0 0 0 0 h 0\nFLASER 3 1 1", "bad.log:2"),
+        ("\u{1}\u{2}garbage \u{7f}\n{\"format\": 1}\n", "no laser scan"),
     ];
     for (text, says) in cases {
         let log = dir.path().join("bad.log");
@@ -272,6 +278,15 @@ fn bad_laser_logs_are_refused_naming_the_file() {
         assert!(!run.status.success() && err.contains(says), "{text:?}: {err}");
         assert!(!err.contains("panicked"), "{err}");
     }
+    let missing = dir.path().join("missing.log");
+    let run = pirouette(&["map", missing.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && err.contains("missing.log"), "{err}");
+    let bytes = dir.path().join("binary.log");
+    std::fs::write(&bytes, [0xffu8, 0xfe, 0x00, b'\n']).expect("write");
+    let run = pirouette(&["map", bytes.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && err.contains("binary.log:1") && err.contains("UTF-8"), "{err}");
 }
 
 #[test]

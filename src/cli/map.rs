@@ -212,7 +212,9 @@ pub fn evaluate(
 /// `pirouette map`.
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
-    if a.dataset.is_file() && pirouette::io::is_carmen_log(&a.dataset) {
+    // A camera dataset is a folder (or its dataset.json); any other file
+    // is read as a laser log.
+    if a.dataset.is_file() && a.dataset.file_name().is_some_and(|n| n != "dataset.json") {
         let config = pirouette::laser::LaserConfig::default();
         return super::laser::map(&a.dataset, &a.out, &config);
     }

@@ -303,22 +303,6 @@ impl<R: BufRead> Iterator for CarmenReader<R> {
     }
 }
 
-/// Whether a file looks like a CARMEN log: its first 64 kB hold a laser
-/// or odometry line.
-pub fn is_carmen_log(path: &Path) -> bool {
-    let Ok(file) = std::fs::File::open(path) else {
-        return false;
-    };
-    let mut head = Vec::new();
-    if file.take(64 * 1024).read_to_end(&mut head).is_err() {
-        return false;
-    }
-    String::from_utf8_lossy(&head).lines().any(|l| {
-        let kind = l.split_ascii_whitespace().next();
-        matches!(kind, Some("FLASER" | "ROBOTLASER1" | "ODOM"))
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -36,7 +36,7 @@ mod places;
 mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
-pub use carmen::{is_carmen_log, CarmenReader, LaserScan, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
+pub use carmen::{CarmenReader, LaserScan, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
 pub use dataset::{
     limits, CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
     FORMAT_VERSION,
