@@ -279,14 +279,27 @@ fn bad_laser_logs_are_refused_naming_the_file() {
         assert!(!err.contains("panicked"), "{err}");
     }
     let missing = dir.path().join("missing.log");
-    let run = pirouette(&["map", missing.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    let run = pirouette(&[
+        "map",
+        missing.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success() && err.contains("missing.log"), "{err}");
     let bytes = dir.path().join("binary.log");
     std::fs::write(&bytes, [0xffu8, 0xfe, 0x00, b'\n']).expect("write");
-    let run = pirouette(&["map", bytes.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    let run = pirouette(&[
+        "map",
+        bytes.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
     let err = String::from_utf8_lossy(&run.stderr);
-    assert!(!run.status.success() && err.contains("binary.log:1") && err.contains("UTF-8"), "{err}");
+    assert!(
+        !run.status.success() && err.contains("binary.log:1") && err.contains("UTF-8"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -109,6 +109,48 @@ fn registered_sweeps_map_a_rendered_field_to_a_centimetre() {
 }
 
 #[test]
+fn revisits_the_place_index_recognises_are_true_and_close_loops() {
+    let root = rendered("field-multi", 17);
+    let ds = Dataset::open(&root).unwrap();
+    let mapped = pipeline::map_dataset(&ds, &PipelineConfig::default(), &|_| {}).unwrap();
+    let truth = truth_in_map_frame(&ds).unwrap();
+    let revisits = &mapped.map.revisits;
+    assert!(
+        !revisits.is_empty(),
+        "the route comes back, and no revisit was recognised"
+    );
+    let sweeps = &mapped.swept.sweeps;
+    for r in revisits {
+        assert!(
+            r.earlier + 1 < r.later,
+            "{r:?}: a revisit is of a sweep before the last"
+        );
+        // A true revisit: the two sweeps' first frames stand within 15 cm
+        // (the place index's own bound), and the pose it found is right.
+        let (a, b) = (
+            truth[sweeps[r.earlier].frames[0]],
+            truth[sweeps[r.later].frames[0]],
+        );
+        let true_rel = a.between(&b);
+        assert!(true_rel.translation().norm() < 0.15, "{r:?}: {true_rel:?}");
+        assert!(r.registered && r.kept, "{r:?}");
+    }
+    // Without the index the pairwise matching finds the same loops here
+    // (the route does not drift out of its reach): the map is the same.
+    let without = PipelineConfig {
+        map: pirouette::mapping::MapConfig {
+            revisits: None,
+            ..PipelineConfig::default().map
+        },
+        ..PipelineConfig::default()
+    };
+    let plain = pipeline::map_dataset(&ds, &without, &|_| {}).unwrap();
+    assert!(plain.map.revisits.is_empty());
+    assert!(revisits.iter().all(|r| !r.beyond_reach));
+    assert_eq!(plain.map.frame_poses, mapped.map.frame_poses);
+}
+
+#[test]
 fn a_rendered_room_maps_within_the_office_targets() {
     // Its soft limit (1 m) leaves most walls of the 4 × 3 m room beyond
     // sight for the map: the sweeps are registered on what lies farther.
@@ -250,7 +292,10 @@ fn map_and_eval_refuse_bad_input_with_the_file_named() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("robot.log") && err.contains("laser"), "{err}");
+    assert!(
+        err.contains("robot.log:1") && err.contains("ROBOTLASER1"),
+        "{err}"
+    );
 
     // A map folder without poses.
     let root = rendered("field-multi", 17);

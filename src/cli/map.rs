@@ -266,6 +266,29 @@ pub fn map(a: MapArgs) -> Result<()> {
             )?,
         }
     }
+    let revisits = &mapped.map.revisits;
+    if !revisits.is_empty() {
+        let far = revisits.iter().filter(|r| r.beyond_reach).count();
+        let registered = revisits.iter().filter(|r| r.registered).count();
+        let kept = revisits.iter().filter(|r| r.kept).count();
+        outln!(
+            "revisits recognised by the place index: {} ({far} beyond the reach of the pairwise matching); {registered} matched as loop edges, {kept} kept by the adjustment",
+            revisits.len()
+        )?;
+        for r in revisits.iter().filter(|r| !r.kept) {
+            outln!(
+                "          sweep {} at the place of sweep {} (score {:.2}): {}",
+                mapped.map.sweeps[r.later].id,
+                mapped.map.sweeps[r.earlier].id,
+                r.score,
+                if r.registered {
+                    "dropped, the other matches disagree"
+                } else {
+                    "not confirmed by registration"
+                }
+            )?;
+        }
+    }
     let ros = RosMap::from_grid(&mapped.map.grid);
     outln!(
         "map {} × {} cells of {} cm written to {} (look at {})",

@@ -47,10 +47,12 @@ pub(crate) const EDGE_GATE: f64 = 16.27;
 /// `edges` in the least-squares sense: Gauss-Newton from the given poses
 /// ([`pirouette_graph::optimise`]), then once more without the edges the
 /// first solution contradicts ([`EDGE_GATE`]). Poses stay as they were
-/// where the graph cannot be solved (a pose no edge reaches).
-pub(crate) fn adjust(poses: &mut [Pose2], edges: Vec<Edge>) {
+/// where the graph cannot be solved (a pose no edge reaches). Returns, per
+/// edge, whether it was kept.
+pub(crate) fn adjust(poses: &mut [Pose2], edges: Vec<Edge>) -> Vec<bool> {
+    let mut kept = vec![true; edges.len()];
     if poses.len() < 2 {
-        return;
+        return kept;
     }
     let mut graph = PoseGraph::new(poses.to_vec());
     graph.edges = edges.into_iter().map(Edge::to_graph).collect();
@@ -60,22 +62,25 @@ pub(crate) fn adjust(poses: &mut [Pose2], edges: Vec<Edge>) {
         relative_decrease: 1e-12,
         ..OptimiseConfig::default()
     };
-    for round in 0..2 {
+    if optimise(&mut graph, &config).is_err() {
+        return kept;
+    }
+    let poses_now = &graph.poses;
+    for (k, e) in graph.edges.iter().enumerate() {
+        kept[k] = e.chi2(&poses_now[e.from], &poses_now[e.to]) <= EDGE_GATE;
+    }
+    if kept.iter().any(|k| !k) {
+        let mut i = 0;
+        graph.edges.retain(|_| {
+            i += 1;
+            kept[i - 1]
+        });
         if optimise(&mut graph, &config).is_err() {
-            return;
-        }
-        let before = graph.edges.len();
-        if round == 0 {
-            let poses = &graph.poses;
-            graph
-                .edges
-                .retain(|e| e.chi2(&poses[e.from], &poses[e.to]) <= EDGE_GATE);
-        }
-        if graph.edges.len() == before {
-            break;
+            return kept;
         }
     }
     poses.copy_from_slice(&graph.poses);
+    kept
 }
 
 /// Gauss-Newton iterations, at most.

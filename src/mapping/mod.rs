@@ -18,7 +18,9 @@ use rayon::prelude::*;
 mod chain;
 mod fields;
 pub(crate) mod graph;
+pub mod revisits;
 
+use crate::localise::LocaliseConfig;
 use chain::chain_headings;
 use fields::{field_in, field_of, frame_fields, seen_by};
 
@@ -44,6 +46,10 @@ pub struct MapConfig {
     /// than [`SweepConfig::commanded_sigma_rad`] (one standard deviation):
     /// odometry's rotation error grows with the rotation.
     pub turn_error_frac: f64,
+    /// Revisits recognised by the place index become candidate loop
+    /// edges of the joint adjustment ([`revisits`]); `None`: not looked
+    /// for.
+    pub revisits: Option<LocaliseConfig>,
 }
 
 impl MapConfig {
@@ -80,6 +86,7 @@ impl Default for MapConfig {
             sweep: SweepConfig::default(),
             far_reach: 2.0,
             turn_error_frac: 0.1,
+            revisits: Some(LocaliseConfig::default()),
         }
     }
 }
@@ -110,6 +117,8 @@ pub struct MapRun {
     pub frame_poses: Vec<Pose2>,
     /// One per sweep, in capture order.
     pub sweeps: Vec<SweepPose>,
+    /// The revisits the place index recognised, and what became of them.
+    pub revisits: Vec<revisits::Revisit>,
 }
 
 /// Splits a sweep into blocks: frames that verified matches join
@@ -427,10 +436,18 @@ pub fn build_map(
     }
     // The sweeps moved together to agree with every pair's match, then
     // each placed once more against that map.
+    let mut revisits = Vec::new();
     if sweeps.len() > 1 {
-        let mut edges = sweep_edges(&placed, sweeps, input, blind_m, config)?;
+        if let Some(c) = &config.revisits {
+            revisits = revisits::recognise(sweeps, &placed, c)?;
+        }
+        let (mut edges, revisit_edges) = sweep_edges(&placed, sweeps, input, blind_m, config, &mut revisits)?;
         edges.extend(motion_edges(&placed, sweeps, input, config));
-        adjust_sweeps(&mut placed, edges);
+        let kept = adjust_sweeps(&mut placed, edges);
+        for (r, e) in revisits.iter_mut().zip(revisit_edges) {
+            r.registered = e.is_some();
+            r.kept = e.is_some_and(|e| kept[e]);
+        }
         refine_pass(&mut placed, sweeps, input, blind_m, config)?;
     }
     progress();
@@ -486,6 +503,7 @@ pub fn build_map(
         grid,
         frame_poses,
         sweeps: out,
+        revisits,
     })
 }
 
@@ -506,7 +524,8 @@ fn sweep_edges(
     input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
-) -> Result<Vec<graph::Edge>> {
+    revisits: &mut [revisits::Revisit],
+) -> Result<(Vec<graph::Edge>, Vec<Option<usize>>)> {
     let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
     let own: Vec<(LikelihoodField, Vec<Point2>)> = (0..sweeps.len())
         .into_par_iter()
@@ -531,17 +550,33 @@ fn sweep_edges(
         let (a, b) = (placed[i].pose, placed[j].pose);
         (a.x - b.x).hypot(a.y - b.y) <= reach(i) + reach(j)
     };
-    let pairs: Vec<(usize, usize)> = (0..sweeps.len())
-        .flat_map(|i| (0..sweeps.len()).filter(move |&j| j != i).map(move |j| (i, j)))
-        .filter(|&(i, j)| near(i, j))
+    // Every near pair from where the two were placed; a recognised revisit
+    // out of reach from where the place index put it.
+    let mut pairs: Vec<(usize, usize, Option<Pose2>)> = (0..sweeps.len())
+        .flat_map(|i| {
+            (0..sweeps.len())
+                .filter(move |&j| j != i)
+                .map(move |j| (i, j, None))
+        })
+        .filter(|&(i, j, _)| near(i, j))
         .collect();
+    for r in revisits.iter_mut() {
+        r.beyond_reach = !near(r.earlier, r.later);
+        if r.beyond_reach {
+            pairs.push((r.earlier, r.later, Some(r.relative)));
+        }
+    }
     let edges = pairs
-        .into_par_iter()
-        .map(|(i, j)| -> Result<Option<graph::Edge>> {
+        .par_iter()
+        .map(|&(i, j, recognised)| -> Result<Option<graph::Edge>> {
+            let (mean, shift) = match recognised {
+                Some(z) => (z, REVISIT_SHIFT_M),
+                None => (placed[i].pose.between(&placed[j].pose), PAIR_SHIFT_M),
+            };
             let prior = PosePrior {
-                mean: placed[i].pose.between(&placed[j].pose),
-                sigma_forward_m: PAIR_SHIFT_M,
-                sigma_left_m: PAIR_SHIFT_M,
+                mean,
+                sigma_forward_m: shift,
+                sigma_left_m: shift,
                 sigma_theta_rad: config.sweep.commanded_sigma_rad,
             };
             let reg = register(&own[i].0, &own[j].1, &prior, &config.register)?;
@@ -553,8 +588,30 @@ fn sweep_edges(
             }))
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(edges.into_iter().flatten().collect())
+    // Where each revisit's pair ended up among the edges kept.
+    let mut at = Vec::with_capacity(edges.len());
+    let mut kept_edges = Vec::new();
+    for e in edges {
+        at.push(e.map(|_| kept_edges.len()));
+        kept_edges.extend(e);
+    }
+    let revisit_edges = revisits
+        .iter()
+        .map(|r| {
+            let (i, j) = (r.earlier, r.later);
+            let k = pairs
+                .iter()
+                .position(|&(a, b, z)| a == i && b == j && z.is_some() == r.beyond_reach)?;
+            at[k]
+        })
+        .collect();
+    Ok((kept_edges, revisit_edges))
 }
+
+/// How far from where the place index puts a revisit its pair is
+/// matched, one standard deviation (metres): the index's registration is
+/// good to a few centimetres.
+const REVISIT_SHIFT_M: f64 = 0.15;
 
 /// The forward moves between consecutive sweeps as edges: where the
 /// previous sweep's last frame and the move put the next sweep's first
@@ -586,12 +643,13 @@ fn motion_edges(
 /// relative pose at once (`graph::adjust`). Placing sweeps one at a time
 /// against the map of the others cannot turn a group of sweeps that agree
 /// with each other together; a joint solve can.
-fn adjust_sweeps(placed: &mut [Placed], edges: Vec<graph::Edge>) {
+fn adjust_sweeps(placed: &mut [Placed], edges: Vec<graph::Edge>) -> Vec<bool> {
     let mut poses: Vec<Pose2> = placed.iter().map(|p| p.pose).collect();
-    graph::adjust(&mut poses, edges);
+    let kept = graph::adjust(&mut poses, edges);
     for (p, pose) in placed.iter_mut().zip(poses) {
         p.pose = pose;
     }
+    kept
 }
 
 /// The belief in a sweep's first frame after the forward move from the
