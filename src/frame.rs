@@ -1,12 +1,23 @@
 //! The back end's input, whatever the sensor: a frame is the profiles of
 //! one observation and the motion that brought the robot there.
 //!
-//! A camera dataset makes frames with [`camera_frames`]; a laser log will
-//! be one more constructor. Nothing after the frames knows which sensor
+//! A camera dataset makes frames with [`camera_frames`], a laser log's
+//! scans with [`laser_frame`]. Nothing after the frames knows which sensor
 //! made them.
 
-use pirouette_io::{Dataset, Motion};
+use pirouette_geom::Pose2;
+use pirouette_io::{Dataset, LaserScan, Motion};
 use pirouette_profile::Rop;
+
+/// How the robot got from the previous frame to this one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Step {
+    /// A commanded in-place turn or straight move (a camera dataset's
+    /// manifest).
+    Commanded(Motion),
+    /// A measured relative pose (raw odometry), in the previous frame.
+    Odometry(Pose2),
+}
 
 /// One observation: its profiles, each for one use, and the motion since
 /// the previous frame.
@@ -14,8 +25,9 @@ use pirouette_profile::Rop;
 pub struct Frame {
     /// A name for reports: the image's path in its dataset.
     pub label: String,
-    /// The commanded motion since the previous frame; `None` for the first.
-    pub motion: Option<Motion>,
+    /// The motion since the previous frame; `None` for the first, and
+    /// where the sensor's log holds none.
+    pub motion: Option<Step>,
     /// The profile the grid fuses.
     pub rop: Rop,
     /// The profile registration compares with the map of other frames.
@@ -36,12 +48,43 @@ pub fn camera_frames(ds: &Dataset, rops: Vec<Rop>, compared: Vec<Rop>, matched: 
         .zip(rops.into_iter().zip(compared).zip(matched))
         .map(|(f, ((rop, compared), matched))| Frame {
             label: f.image.clone(),
-            motion: f.motion,
+            motion: f.motion.map(Step::Commanded),
             rop,
             compared,
             matched,
         })
         .collect()
+}
+
+impl Frame {
+    /// The commanded motion since the previous frame, where it was one.
+    pub fn commanded(&self) -> Option<Motion> {
+        match self.motion {
+            Some(Step::Commanded(m)) => Some(m),
+            _ => None,
+        }
+    }
+}
+
+/// A laser scan as a frame: one profile (a bin per beam, centred on it;
+/// no-return beams read "nothing within `max_range_m`") serving every
+/// use, and the raw odometry since the previous scan.
+pub fn laser_frame(scan: &LaserScan, max_range_m: f32) -> Frame {
+    let step = scan.beam_step_rad;
+    let mut rop = Rop::empty(
+        scan.first_bearing_rad - 0.5 * step,
+        step,
+        scan.ranges_m.len(),
+        max_range_m,
+    );
+    rop.range_m.clone_from(&scan.ranges_m);
+    Frame {
+        label: format!("scan {}", scan.scan),
+        motion: scan.odometry.map(Step::Odometry),
+        compared: rop.clone(),
+        matched: rop.clone(),
+        rop,
+    }
 }
 
 /// The motions of a camera dataset's frames, from its manifest alone.

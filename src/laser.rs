@@ -1,10 +1,14 @@
-//! Laser logs through the same engine: each scan a profile, registered
-//! against a local map of the scans before it with the raw odometry as
-//! the prior, and the grid made of the registered scans.
+//! Laser logs through the same engine: each scan a frame
+//! ([`laser_frame`]) whose profile is registered against a local map of
+//! the scans before it with the raw odometry as the prior, revisits
+//! matched against the maps of earlier scans as loop edges of a pose
+//! graph, and the grid made of the scans at the graph's poses.
 //!
-//! The log is streamed twice (registration, then the grid), so memory
-//! holds the poses and a local map, never the log.
+//! The log is streamed twice (registration, then the grid): memory holds
+//! the poses and each scan's thinned endpoints (a few hundred points, for
+//! the local map and loop searches), never the log's lines.
 
+use crate::frame::{laser_frame, Step};
 use crate::geom::{Point2, Pose2};
 use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use crate::grid::{GridConfig, OccupancyGrid};
@@ -195,18 +199,9 @@ pub struct LaserMap {
     pub grid: OccupancyGrid,
 }
 
-/// A scan as a radial obstacle profile: one bin per beam, centred on it;
-/// no-return beams read "nothing within the limit".
+/// A scan as a radial obstacle profile (see [`laser_frame`]).
 pub fn scan_profile(scan: &LaserScan, max_range_m: f32) -> Rop {
-    let step = scan.beam_step_rad;
-    let mut rop = Rop::empty(
-        scan.first_bearing_rad - 0.5 * step,
-        step,
-        scan.ranges_m.len(),
-        max_range_m,
-    );
-    rop.range_m.clone_from(&scan.ranges_m);
-    rop
+    laser_frame(scan, max_range_m).rop
 }
 
 /// The prior of a scan's pose from the previous pose and the step's raw
@@ -485,9 +480,13 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
     for scan in CarmenReader::open(path)? {
         let scan = scan?;
         let k = meta.len();
-        let rop = scan_profile(&scan, config.max_range_m);
-        let mut points = endpoints(&rop);
-        points.extend(far_points(&rop, config.reach_m));
+        let frame = laser_frame(&scan, config.max_range_m);
+        let mut points = endpoints(&frame.compared);
+        points.extend(far_points(&frame.compared, config.reach_m));
+        let odometry = match frame.motion {
+            Some(Step::Odometry(step)) => Some(step),
+            _ => None,
+        };
         m.points.push(thin_points(
             &points,
             config.register.spacing_m.max(config.field_resolution_m),
@@ -514,7 +513,7 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
             pose: Pose2::IDENTITY,
             recorded: origin.between(&scan.recorded),
             dead_reckoning,
-            odometry: scan.odometry.is_some(),
+            odometry: odometry.is_some(),
             registered,
         });
         let every = config.loops.every_scans;
@@ -546,7 +545,7 @@ pub fn grid_of_log(path: &Path, poses: &[Pose2], config: &LaserConfig) -> Result
     let mut used = 0;
     for (scan, pose) in CarmenReader::open(path)?.zip(poses) {
         let scan = scan?;
-        grid.insert_profile(pose, &scan_profile(&scan, config.max_range_m), 0.0);
+        grid.insert_profile(pose, &laser_frame(&scan, config.max_range_m).rop, 0.0);
         used += 1;
     }
     if used != poses.len() {

@@ -78,7 +78,7 @@ pub fn bench(a: BenchArgs) -> Result<()> {
         .sweeps
         .iter()
         .flat_map(|s| s.frames.windows(2).map(|w| (w[0], w[1])))
-        .filter_map(|(b, c)| match swept.frames[c].motion {
+        .filter_map(|(b, c)| match swept.frames[c].commanded() {
             Some(Motion::Turn { turn_deg }) => Some((b, c, turn_deg.to_radians())),
             _ => None,
         })

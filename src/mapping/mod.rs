@@ -403,7 +403,7 @@ pub fn build_map(
     progress: impl Fn(),
 ) -> Result<MapRun> {
     let reach = input.iter().map(|f| f.rop.max_range_m as f64).fold(0.0, f64::max);
-    let motions: Vec<Option<Motion>> = input.iter().map(|f| f.motion).collect();
+    let motions: Vec<Option<Motion>> = input.iter().map(Frame::commanded).collect();
     check_extent(&motions, reach, &config.grid)?;
     if let Some(&i) = sweeps.iter().flat_map(|s| &s.frames).find(|&&i| i >= input.len()) {
         bail!("a sweep names frame {i} of {}", input.len());
@@ -414,7 +414,7 @@ pub fn build_map(
         let state = match placed.last() {
             None => Placed::new(sweep, Pose2::IDENTITY, config.sweep.matching.pivot_m),
             Some(prev) => {
-                let prior = forward_prior(&sweeps[s - 1], prev, input[sweep.frames[0]].motion, config);
+                let prior = forward_prior(&sweeps[s - 1], prev, input[sweep.frames[0]].commanded(), config);
                 let mut state = Placed::new(sweep, prior.mean, config.sweep.matching.pivot_m);
                 state.prior = Some(prior);
                 let field = field_of(&inserted, input, blind_m, config)?;
@@ -627,7 +627,7 @@ fn motion_edges(
             let prev = &placed[s - 1];
             let (last, fallback_var) = last_frame(&sweeps[s - 1], prev, config);
             let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
-            let distance = forward_distance(input[sweeps[s].frames[0]].motion);
+            let distance = forward_distance(input[sweeps[s].frames[0]].commanded());
             let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
             graph::Edge {
                 i: s - 1,
