@@ -272,6 +272,9 @@ pub struct RegisteredLog {
     pub loops: Vec<LoopClosure>,
     /// Searches for a revisit made.
     pub loop_searches: usize,
+    /// The pose graph at its solution: a node per scan (the scan's
+    /// pose), an edge per step and per loop kept.
+    pub graph: PoseGraph,
 }
 
 /// The running state of registration: each scan's thinned endpoints (in
@@ -531,10 +534,20 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
     for (s, p) in meta.iter_mut().zip(&m.poses) {
         s.pose = *p;
     }
+    let dropped: Vec<usize> = m.loops.iter().filter(|(l, _)| !l.kept).map(|&(_, e)| e).collect();
+    let mut graph = PoseGraph::new(m.poses);
+    graph.edges = m
+        .edges
+        .into_iter()
+        .enumerate()
+        .filter(|(e, _)| !dropped.contains(e))
+        .map(|(_, edge)| edge)
+        .collect();
     Ok(RegisteredLog {
         scans: meta,
         loops: m.loops.into_iter().map(|(l, _)| l).collect(),
         loop_searches: m.searches,
+        graph,
     })
 }
 

@@ -216,7 +216,14 @@ fn map_and_eval_laser_write_and_score_a_log() {
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let said = String::from_utf8_lossy(&run.stdout);
     assert!(said.contains("loops closed"), "{said}");
-    for f in ["map.pgm", "map.yaml", "map.png", "poses.json", "poses.tum"] {
+    for f in [
+        "map.pgm",
+        "map.yaml",
+        "map.png",
+        "poses.json",
+        "poses.tum",
+        "graph.g2o",
+    ] {
         assert!(out.join(f).is_file(), "{f}");
     }
     let poses: serde_json::Value =
@@ -226,6 +233,16 @@ fn map_and_eval_laser_write_and_score_a_log() {
     assert_eq!(poses[3]["scan"], 3);
     assert!((poses[3]["t"].as_f64().expect("t") - 0.6).abs() < 1e-9);
     assert!(poses[3].get("image").is_none());
+    // The pose graph: a vertex per scan at its pose, a step edge per scan
+    // after the first and the loops kept.
+    let g = pirouette::io::read_g2o(&out.join("graph.g2o")).expect("the graph reads back");
+    assert_eq!(g.graph.poses.len(), path.len());
+    assert!(
+        g.graph.edges.len() > path.len(),
+        "{} edges: no loop edge",
+        g.graph.edges.len()
+    );
+    assert!((g.graph.poses[3].x - poses[3]["x"].as_f64().expect("x")).abs() < 1e-5);
     // The command's scores are the library's on the same files.
     let report = evaluate_laser(&log, &out, &[1.0]).expect("scored");
     let run = pirouette(&[

@@ -4,10 +4,14 @@ use anyhow::{bail, Result};
 use pirouette::eval::laser::{evaluate_laser, LaserScores};
 use pirouette::geom::Pose2;
 use pirouette::grid::RosMap;
-use pirouette::io::{map_names, write_map_dir, PoseRecord};
+use pirouette::io::{map_names, write_g2o, write_map_dir, G2oGraph, PoseRecord};
 use pirouette::laser::{count_scans, map_log, LaserConfig, LaserMap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The pose graph of a laser map, beside the map's files: vertex `k` is
+/// scan `k`.
+const GRAPH_FILE: &str = "graph.g2o";
 
 /// The peak resident memory of this process, bytes (Linux), if known.
 fn peak_memory_bytes() -> Option<u64> {
@@ -94,6 +98,12 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
         bail!("{}: no scan was mapped", log.display());
     }
     write_map_dir(out, &ros, &png, &records)?;
+    let graph = G2oGraph {
+        graph: mapped.registered.graph.clone(),
+        ids: (0..mapped.registered.graph.poses.len() as u64).collect(),
+        has_vertices: true,
+    };
+    write_g2o(&out.join(GRAPH_FILE), &graph)?;
     Ok(())
 }
 
