@@ -46,7 +46,7 @@ mod signature;
 mod stored;
 pub mod synthetic;
 
-pub use index::{Candidate, IndexContents, PlaceIndex, PlaceMeta, QueryConfig};
+pub use index::{Candidate, IndexContents, PlaceIndex, PlaceMeta, QueryConfig, TREE_DIMS};
 pub use signature::{
     colour_distance, condition, dequantise_chroma, quantise_chroma, relative_chroma, ColourSectors,
     Signature, SignatureConfig, Transforms, KEY_DIMS, MAX_SAMPLES,
