@@ -320,8 +320,8 @@ fn bad_laser_logs_are_refused_naming_the_file() {
 }
 
 #[test]
-fn shared_laser_logs_map_within_the_targets() {
-    let Some(shared) = shared("shared_laser_logs_map_within_the_targets") else {
+fn shared_intel_log_maps_as_measured() {
+    let Some(shared) = shared("shared_intel_log_maps_as_measured") else {
         return;
     };
     let log = shared.join("laser/intel-corrected.log");
