@@ -18,9 +18,10 @@ use std::path::{Path, PathBuf};
 pub struct MapOptions {
     #[command(flatten)]
     sweep: SweepOptions,
-    /// Side of a map cell, metres.
-    #[arg(long, default_value_t = 0.01)]
-    resolution: f64,
+    /// Side of a map cell, metres [default: 0.01 for camera datasets,
+    /// 0.05 for laser logs].
+    #[arg(long)]
+    resolution: Option<f64>,
     /// Registration also matches ranges beyond the soft limit, up to this
     /// many times it (1: only the ranges the map takes). They never enter
     /// the map.
@@ -44,8 +45,11 @@ impl MapOptions {
     /// The mapping settings' own checks (before any image is read).
     fn check(&self) -> Result<()> {
         self.sweep.check()?;
-        if !(self.resolution.is_finite() && self.resolution >= 0.001 && self.resolution <= 1.0) {
-            bail!("--resolution {} m is outside [0.001, 1]", self.resolution);
+        if let Some(r) = self
+            .resolution
+            .filter(|r| !(r.is_finite() && *r >= 0.001 && *r <= 1.0))
+        {
+            bail!("--resolution {r} m is outside [0.001, 1]");
         }
         if !(self.far_reach.is_finite() && self.far_reach >= 1.0) {
             bail!("--far-reach {} is not a factor of at least 1", self.far_reach);
@@ -59,7 +63,7 @@ impl MapOptions {
         Ok(PipelineConfig {
             map: MapConfig {
                 grid: GridConfig {
-                    resolution_m: self.resolution,
+                    resolution_m: self.resolution.unwrap_or(GridConfig::default().resolution_m),
                     ..GridConfig::default()
                 },
                 far_reach: self.far_reach,
@@ -215,7 +219,10 @@ pub fn map(a: MapArgs) -> Result<()> {
     // A camera dataset is a folder (or its dataset.json); any other file
     // is read as a laser log.
     if a.dataset.is_file() && a.dataset.file_name().is_some_and(|n| n != "dataset.json") {
-        let config = pirouette::laser::LaserConfig::default();
+        let mut config = pirouette::laser::LaserConfig::default();
+        if let Some(r) = a.options.resolution {
+            config.grid.resolution_m = r;
+        }
         return super::laser::map(&a.dataset, &a.out, &config);
     }
     let ds = open_camera_dataset(&a.dataset)?;
