@@ -32,6 +32,35 @@ fn resident_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
+/// Criterion reports means; a query's latency is skewed (a query far from
+/// every stored key searches a wide ball), so the distribution over 200
+/// unseen rooms is printed beside it: each query timed alone, the best of
+/// 20 runs.
+fn latency_percentiles(index: &PlaceIndex, places: usize, config: &QueryConfig) {
+    let mut rng = ChaCha8Rng::seed_from_u64(1234);
+    let mut times: Vec<f64> = (0..200)
+        .map(|_| {
+            let rop = random_sweep(&mut rng, SYNTHETIC_LIMIT_M);
+            let q = index.transforms().signature(&rop).expect("a full sweep");
+            (0..20)
+                .map(|_| {
+                    let t = std::time::Instant::now();
+                    black_box(index.query(&q, config));
+                    t.elapsed().as_secs_f64() * 1e6
+                })
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    let at = |p: usize| times[(times.len() - 1) * p / 100];
+    eprintln!(
+        "places/query: {places} places, k-d tree, per-query latency over 200 unseen rooms: p50 {:.0} µs, p90 {:.0} µs, p99 {:.0} µs",
+        at(50),
+        at(90),
+        at(99)
+    );
+}
+
 fn query(c: &mut Criterion) {
     let mut group = c.benchmark_group("places/query");
     group
@@ -57,6 +86,7 @@ fn query(c: &mut Criterion) {
             );
         }
         let qs = queries(&index, 64);
+        latency_percentiles(&index, places, &config);
         let mut k = 0;
         group.bench_with_input(BenchmarkId::new("kd-tree", places), &index, |b, index| {
             b.iter(|| {
