@@ -321,7 +321,7 @@ pub fn register(
     });
     let posterior = kept.iter().map(|&(kt, k)| (k.score, lattice.pose(k.a, k.b, kt)));
     let covariance = lattice_covariance(posterior, best.0, res, theta_step);
-    let rival = rival_peak(&kept, best).map(|(kt, k)| {
+    let rival = rival_peak(&kept, best, nx, ny).map(|(kt, k)| {
         let x = lattice.pose(k.a, k.b, kt);
         Rival {
             pose: Pose2::new(x[0], x[1], x[2]),
@@ -473,12 +473,21 @@ fn bounded(
     }
     let side = (2 * block.nx.max(block.ny) + 1) as u64;
     let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
-    let pyramid = Pyramid::new(
-        field,
-        (lo.0 - block.nx, lo.1 - block.ny),
-        (hi.0 + block.nx, hi.1 + block.ny),
-        top,
+    // Only the part of that block a level's block can reach the field
+    // from: every other look-up is of cells beyond the field, at its floor
+    // (the pyramid answers the floor beyond its block). Far endpoints swept
+    // over the rotations span a far larger block than the field holds.
+    let (min, width, height, _) = field.raw();
+    let pad = (1i64 << top) - 1;
+    let lo = (
+        (lo.0 - block.nx).max(min.0 - pad),
+        (lo.1 - block.ny).max(min.1 - pad),
     );
+    let hi = (
+        (hi.0 + block.nx).min(min.0 + width as i64 - 1).max(lo.0),
+        (hi.1 + block.ny).min(min.1 + height as i64 - 1).max(lo.1),
+    );
+    let pyramid = Pyramid::new(field, lo, hi, top);
     let prior = lattice.prior;
     let form = GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m);
     let search = |kt: i64| -> Vec<KeptPose> {
@@ -507,31 +516,75 @@ fn bounded(
 
 /// The best local maximum of the kept poses' scores (no kept lattice
 /// neighbour scores higher) that is neither the best pose nor its
-/// neighbour. `kept` is sorted in lattice order.
-fn rival_peak(kept: &[KeptPose], best: LatticeBest) -> Option<KeptPose> {
-    let score: std::collections::HashMap<(i64, i64, i64), f64> =
-        kept.iter().map(|&(kt, k)| ((kt, k.a, k.b), k.score)).collect();
+/// neighbour; the first in lattice order among equals. `kept` is sorted in
+/// lattice order (rotation, then row, then column), every pose within the
+/// `nx × ny` translation steps of `lattice`.
+///
+/// Neighbours are looked up in dense slabs of three rotations at a time
+/// (a wide search keeps a million poses: a map of them all would cost
+/// tens of megabytes).
+fn rival_peak(kept: &[KeptPose], best: LatticeBest, nx: i64, ny: i64) -> Option<KeptPose> {
+    let (sx, sy) = ((2 * nx + 1) as usize, (2 * ny + 1) as usize);
     let near = |kt: i64, a: i64, b: i64| {
         (kt - best.3).abs() <= 1 && (a - best.1).abs() <= 1 && (b - best.2).abs() <= 1
     };
-    kept.iter()
-        .copied()
-        .filter(|&(kt, k)| !near(kt, k.a, k.b))
-        .filter(|&(kt, k)| {
-            (-1..=1).all(|dt| {
-                (-1..=1).all(|da| {
-                    (-1..=1).all(|db| {
-                        score
-                            .get(&(kt + dt, k.a + da, k.b + db))
-                            .is_none_or(|&s| s <= k.score)
+    // Each rotation's run of `kept`.
+    let mut runs: Vec<(i64, std::ops::Range<usize>)> = Vec::new();
+    for (i, &(kt, _)) in kept.iter().enumerate() {
+        match runs.last_mut() {
+            Some((t, r)) if *t == kt => r.end = i + 1,
+            _ => runs.push((kt, i..i + 1)),
+        }
+    }
+    // Slab `kt mod 3` holds run `held[kt mod 3]`'s scores (the floor of
+    // the scores elsewhere): a rotation's two neighbours are in the others.
+    let mut slabs = [(); 3].map(|()| vec![f64::NEG_INFINITY; sx * sy]);
+    let mut held: [Option<usize>; 3] = [None; 3];
+    let at = |a: i64, b: i64| (b + ny) as usize * sx + (a + nx) as usize;
+    let mut rival: Option<KeptPose> = None;
+    for (n, (kt, run)) in runs.iter().enumerate() {
+        let kt = *kt;
+        let wanted = [n.checked_sub(1), Some(n), Some(n + 1)]
+            .map(|m| m.filter(|&m| runs.get(m).is_some_and(|r| (r.0 - kt).abs() <= 1)));
+        for m in wanted.into_iter().flatten() {
+            let slot = runs[m].0.rem_euclid(3) as usize;
+            if held[slot] != Some(m) {
+                if let Some(old) = held[slot] {
+                    for &(_, k) in &kept[runs[old].1.clone()] {
+                        slabs[slot][at(k.a, k.b)] = f64::NEG_INFINITY;
+                    }
+                }
+                for &(_, k) in &kept[runs[m].1.clone()] {
+                    slabs[slot][at(k.a, k.b)] = k.score;
+                }
+                held[slot] = Some(m);
+            }
+        }
+        // The slabs of rotations kt − 1, kt, kt + 1 that hold kept poses.
+        let neighbours: Vec<&Vec<f64>> = (kt - 1..=kt + 1)
+            .filter_map(|t| {
+                let slot = t.rem_euclid(3) as usize;
+                held[slot].filter(|&m| runs[m].0 == t).map(|_| &slabs[slot])
+            })
+            .collect();
+        for &(_, k) in &kept[run.clone()] {
+            if near(kt, k.a, k.b) || rival.is_some_and(|r| r.1.score >= k.score) {
+                continue;
+            }
+            let peak = neighbours.iter().all(|slab| {
+                (-1..=1).all(|db: i64| {
+                    (-1..=1).all(|da: i64| {
+                        let (a, b) = (k.a + da, k.b + db);
+                        a < -nx || a > nx || b < -ny || b > ny || slab[at(a, b)] <= k.score
                     })
                 })
-            })
-        })
-        .fold(None, |r: Option<KeptPose>, c| match r {
-            Some(r) if r.1.score >= c.1.score => Some(r),
-            _ => Some(c),
-        })
+            });
+            if peak {
+                rival = Some((kt, k));
+            }
+        }
+    }
+    rival
 }
 
 /// The summed field value of the endpoint cells `cells` translated by every

@@ -245,3 +245,74 @@ fn thinning_keeps_one_point_per_cell() {
     ];
     assert_eq!(thin_points(&pts, 0.01), vec![pts[0], pts[2]]);
 }
+
+/// The rival peak by a map of every kept pose: the definition, for
+/// [`rival_peak`]'s slabs to be checked against.
+fn rival_peak_by_map(kept: &[KeptPose], best: LatticeBest) -> Option<KeptPose> {
+    let score: std::collections::HashMap<(i64, i64, i64), f64> =
+        kept.iter().map(|&(kt, k)| ((kt, k.a, k.b), k.score)).collect();
+    let near = |kt: i64, a: i64, b: i64| {
+        (kt - best.3).abs() <= 1 && (a - best.1).abs() <= 1 && (b - best.2).abs() <= 1
+    };
+    let peak = |kt: i64, k: &Kept| {
+        (-1..=1).all(|dt| {
+            (-1..=1).all(|da| {
+                (-1..=1).all(|db| {
+                    score
+                        .get(&(kt + dt, k.a + da, k.b + db))
+                        .is_none_or(|&s| s <= k.score)
+                })
+            })
+        })
+    };
+    kept.iter()
+        .copied()
+        .filter(|&(kt, k)| !near(kt, k.a, k.b) && peak(kt, &k))
+        .fold(None, |r: Option<KeptPose>, c| match r {
+            Some(r) if r.1.score >= c.1.score => Some(r),
+            _ => Some(c),
+        })
+}
+
+#[test]
+fn rival_peak_is_the_best_local_maximum_away_from_the_best() {
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    let (mut found, mut none) = (0, 0);
+    for case in 0..400 {
+        let (nx, ny) = (rng.random_range(0..6i64), rng.random_range(0..6i64));
+        let nt = rng.random_range(0..5i64);
+        // Random subsets of the lattice with few distinct scores (ties).
+        let density = rng.random_range(0.05..1.0);
+        let mut kept: Vec<KeptPose> = Vec::new();
+        for kt in -nt..=nt {
+            for b in -ny..=ny {
+                for a in -nx..=nx {
+                    if rng.random_bool(density) {
+                        let score = f64::from(rng.random_range(0..8u8));
+                        kept.push((kt, Kept { a, b, score }));
+                    }
+                }
+            }
+        }
+        let Some(&(bt, bk)) = kept.iter().max_by(|x, y| x.1.score.total_cmp(&y.1.score)) else {
+            continue;
+        };
+        let best = (bk.score, bk.a, bk.b, bt);
+        let expected = rival_peak_by_map(&kept, best);
+        let got = rival_peak(&kept, best, nx, ny);
+        assert_eq!(
+            got.map(|(t, k)| (t, k.a, k.b, k.score)),
+            expected.map(|(t, k)| (t, k.a, k.b, k.score)),
+            "case {case}"
+        );
+        if expected.is_some() {
+            found += 1;
+        } else {
+            none += 1;
+        }
+    }
+    assert!(
+        found > 100 && none > 10,
+        "{found} cases with a rival, {none} without"
+    );
+}
