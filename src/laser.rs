@@ -5,8 +5,10 @@
 //! graph, and the grid made of the scans at the graph's poses.
 //!
 //! The log is streamed twice (registration, then the grid): memory holds
-//! the poses and each scan's thinned endpoints (a few hundred points, for
-//! the local map and loop searches), never the log's lines.
+//! the poses, the thinned endpoints of the last few dozen scans (the local
+//! map) and the keyframes' maps (one per metre of ground covered, for
+//! revisits), never the log's lines: a log that goes round the same
+//! building for hours needs little more than one that goes round once.
 
 use crate::frame::{laser_frame, Step};
 use crate::geom::{Point2, Pose2};
@@ -20,6 +22,7 @@ use crate::register::{
 };
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
+use std::collections::VecDeque;
 use std::path::Path;
 
 /// How far raw odometry may stray, one standard deviation.
@@ -84,8 +87,8 @@ pub struct LaserConfig {
     pub loops: LoopConfig,
 }
 
-/// Settings of loop closure: how revisits are searched, and when a match
-/// becomes an edge of the pose graph.
+/// Settings of loop closure: which places are kept, how revisits are
+/// searched, and when a match becomes an edge of the pose graph.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoopConfig {
     /// Every this many scans, the scan is searched for among the earlier
@@ -94,18 +97,22 @@ pub struct LoopConfig {
     /// Only scans at least this far back along the path, metres (nearer
     /// ones are in the local map already).
     pub min_separation_m: f64,
-    /// Scans within this distance of the estimated pose are candidates,
-    /// metres ...
+    /// Keyframes within this distance of the estimated pose are
+    /// candidates, metres ...
     pub radius_m: f64,
-    /// ... widened by this share of the path since the candidate (drift
+    /// ... widened by this share of the path since the keyframe (drift
     /// grows with it) ...
     pub radius_per_m: f64,
     /// ... up to this, metres.
     pub max_radius_m: f64,
     /// Heading spread of the search, radians (one σ; searched ±3σ).
     pub sigma_rad: f64,
-    /// A candidate's map is its scan and this many on each side.
+    /// A keyframe's map is its scan and this many on each side.
     pub anchor_scans: usize,
+    /// A scan becomes a keyframe (a place kept for revisits) when no
+    /// keyframe lies this close to it, metres: the places kept grow with
+    /// the ground covered, not with the log's length.
+    pub keyframe_spacing_m: f64,
     /// At most this many candidates per search (the nearest, each at
     /// least `min_separation_m` along the path from the others).
     pub max_candidates: usize,
@@ -117,11 +124,11 @@ pub struct LoopConfig {
 }
 
 impl Default for LoopConfig {
-    /// Every 5th scan searched among scans 8 m or more back along the
-    /// path, within 0.5 m plus 2 % of the path since (at most 3 m) and
-    /// ±15° of the estimate, against the candidate and 10 scans each side;
-    /// up to 2 candidates; a match with 60 % of the endpoints on the map
-    /// and no rival within 10 nats.
+    /// A keyframe (its scan and 10 each side) wherever none lies within
+    /// 1 m; every 5th scan searched among the keyframes 8 m or more back
+    /// along the path, within 0.5 m plus 2 % of the path since (at most
+    /// 3 m) and ±15° of the estimate; up to 2 candidates; a match with
+    /// 60 % of the endpoints on the map and no rival within 10 nats.
     fn default() -> Self {
         Self {
             every_scans: 5,
@@ -131,6 +138,7 @@ impl Default for LoopConfig {
             max_radius_m: 3.0,
             sigma_rad: 5f64.to_radians(),
             anchor_scans: 10,
+            keyframe_spacing_m: 1.0,
             max_candidates: 2,
             min_matched_share: 0.6,
             min_rival_gap_ln: 10.0,
@@ -272,22 +280,39 @@ pub struct RegisteredLog {
     pub loops: Vec<LoopClosure>,
     /// Searches for a revisit made.
     pub loop_searches: usize,
+    /// Places kept for revisits (see [`LoopConfig::keyframe_spacing_m`]).
+    pub keyframes: usize,
     /// The pose graph at its solution: a node per scan (the scan's
     /// pose), an edge per step and per loop kept.
     pub graph: PoseGraph,
 }
 
-/// The running state of registration: each scan's thinned endpoints (in
-/// its own frame, for the local map and loop searches), the poses, the
-/// path length to each, and the pose graph's edges.
+/// The running state of registration: the poses, the path length to
+/// each, the pose graph's edges, the thinned endpoints (in their own
+/// frame) of the last scans (the local map's and the newest keyframe's),
+/// and the keyframes.
 struct Mapper<'c> {
     config: &'c LaserConfig,
-    points: Vec<Vec<Point2>>,
+    /// The endpoints of scans `first..first + recent.len()`.
+    recent: VecDeque<Vec<Point2>>,
+    first: usize,
     poses: Vec<Pose2>,
     along_m: Vec<f64>,
     edges: Vec<GraphEdge>,
+    keyframes: Vec<Keyframe>,
     loops: Vec<(LoopClosure, usize)>,
     searches: usize,
+}
+
+/// A place kept for revisits: a scan and the endpoints of its neighbours
+/// along the path, in its frame.
+struct Keyframe {
+    /// The scan.
+    scan: usize,
+    /// The path length to the last scan of its map, metres.
+    last_along_m: f64,
+    /// The map's endpoints, thinned, in the scan's frame.
+    points: Vec<Point2>,
 }
 
 /// The least spread of a step's or a loop's measured relative pose, one
@@ -298,17 +323,70 @@ const EDGE_FLOOR_M: f64 = 0.01;
 const EDGE_FLOOR_RAD: f64 = 0.004;
 
 impl<'c> Mapper<'c> {
-    /// The likelihood field of scans `range` at their current poses.
+    /// The endpoints of scan `k`, in its frame (a recent scan).
+    fn points(&self, k: usize) -> &[Point2] {
+        &self.recent[k - self.first]
+    }
+
+    /// The likelihood field of recent scans `range` at their current poses.
     fn field(&self, range: std::ops::Range<usize>) -> LikelihoodField {
         let points: Vec<Point2> = range
             .flat_map(|k| {
-                self.points[k]
+                self.points(k)
                     .iter()
                     .map(move |p| self.poses[k].transform_point(*p))
             })
             .collect();
+        self.field_of(&points)
+    }
+
+    /// The likelihood field of obstacle points in the map frame.
+    fn field_of(&self, points: &[Point2]) -> LikelihoodField {
         let r = &self.config.register;
-        LikelihoodField::from_points(&points, self.config.field_resolution_m, r.sigma_m, r.epsilon)
+        LikelihoodField::from_points(points, self.config.field_resolution_m, r.sigma_m, r.epsilon)
+    }
+
+    /// Files scan `k`'s endpoints, forgetting those no local map or
+    /// keyframe needs any more.
+    fn remember(&mut self, k: usize, points: Vec<Point2>) {
+        let c = &self.config;
+        let keep = (c.local_scans + 1).max(2 * c.loops.anchor_scans + 1);
+        self.recent.push_back(points);
+        while self.recent.len() > keep {
+            self.recent.pop_front();
+            self.first += 1;
+        }
+        debug_assert_eq!(self.first + self.recent.len(), k + 1);
+    }
+
+    /// Makes scan `k − anchor_scans` a keyframe (its neighbours now all
+    /// placed) where no keyframe lies near it.
+    fn file_keyframe(&mut self, k: usize) {
+        let c = &self.config.loops;
+        let Some(j) = k.checked_sub(c.anchor_scans) else {
+            return;
+        };
+        let here = self.poses[j].translation();
+        let near = self.keyframes.iter().any(|f| {
+            let t = self.poses[f.scan].translation();
+            (t.x - here.x).hypot(t.y - here.y) < c.keyframe_spacing_m
+        });
+        if near {
+            return;
+        }
+        let to_j = self.poses[j].inverse();
+        let points: Vec<Point2> = (j.saturating_sub(c.anchor_scans)..=k)
+            .flat_map(|m| {
+                let rel = to_j * self.poses[m];
+                self.points(m).iter().map(move |p| rel.transform_point(*p))
+            })
+            .collect();
+        let spacing = self.config.register.spacing_m.max(self.config.field_resolution_m);
+        self.keyframes.push(Keyframe {
+            scan: j,
+            last_along_m: self.along_m[k],
+            points: thin_points(&points, spacing),
+        });
     }
 
     /// An edge `i → j` measuring `j`'s registered pose `pose_j` (with its
@@ -349,7 +427,7 @@ impl<'c> Mapper<'c> {
         let config = self.config;
         let prior = step_prior(&self.poses[k - 1], odometry, config);
         let field = self.field(k.saturating_sub(config.local_scans)..k);
-        let reg = register(&field, &self.points[k], &prior, &config.register).with_context(label)?;
+        let reg = register(&field, self.points(k), &prior, &config.register).with_context(label)?;
         self.poses.push(reg.pose);
         let step = self.poses[k - 1].between(&reg.pose).translation().norm();
         self.along_m.push(self.along_m[k - 1] + step);
@@ -358,51 +436,54 @@ impl<'c> Mapper<'c> {
         Ok(reg.accepted)
     }
 
-    /// Earlier scans that scan `k` may be revisiting, nearest first.
+    /// The keyframes that scan `k` may be revisiting, nearest first, with
+    /// the search radius of each.
     fn loop_candidates(&self, k: usize) -> Vec<(usize, f64)> {
         let c = &self.config.loops;
         let here = self.poses[k].translation();
-        let mut near: Vec<(usize, f64, f64)> = (0..k)
-            .filter(|&j| self.along_m[k] - self.along_m[j] >= c.min_separation_m)
-            .filter_map(|j| {
-                let d = self.poses[j].translation();
+        let mut near: Vec<(usize, f64, f64)> = (self.keyframes.iter().enumerate())
+            .filter(|(_, f)| self.along_m[k] - f.last_along_m >= c.min_separation_m)
+            .filter_map(|(i, f)| {
+                let d = self.poses[f.scan].translation();
                 let dist = (d.x - here.x).hypot(d.y - here.y);
-                let radius =
-                    (c.radius_m + c.radius_per_m * (self.along_m[k] - self.along_m[j])).min(c.max_radius_m);
-                (dist <= radius).then_some((j, dist, radius))
+                let since = self.along_m[k] - self.along_m[f.scan];
+                let radius = (c.radius_m + c.radius_per_m * since).min(c.max_radius_m);
+                (dist <= radius).then_some((i, dist, radius))
             })
             .collect();
         near.sort_by(|a, b| a.1.total_cmp(&b.1));
         let mut chosen: Vec<(usize, f64)> = Vec::new();
-        for (j, _, radius) in near {
+        for (i, _, radius) in near {
             if chosen.len() == c.max_candidates {
                 break;
             }
+            let along = |i: usize| self.along_m[self.keyframes[i].scan];
             if chosen
                 .iter()
-                .all(|&(o, _)| (self.along_m[o] - self.along_m[j]).abs() >= c.min_separation_m)
+                .all(|&(o, _)| (along(o) - along(i)).abs() >= c.min_separation_m)
             {
-                chosen.push((j, radius));
+                chosen.push((i, radius));
             }
         }
         chosen
     }
 
-    /// Searches earlier scans for the place of scan `k`; each match found
+    /// Searches the keyframes for the place of scan `k`; each match found
     /// becomes a loop edge. Whether any did.
     fn close_loops(&mut self, k: usize) -> Result<bool> {
         let config = self.config;
         let c = &config.loops;
         let mut found = false;
-        for (j, radius) in self.loop_candidates(k) {
+        for (i, radius) in self.loop_candidates(k) {
             self.searches += 1;
-            let lo = j.saturating_sub(c.anchor_scans);
-            let hi = (j + c.anchor_scans + 1).min(k);
-            // Only scans well back along the path: the map of the past.
-            let hi = (lo..hi)
-                .find(|&m| self.along_m[k] - self.along_m[m] < c.min_separation_m)
-                .unwrap_or(hi);
-            let field = self.field(lo..hi);
+            let frame = &self.keyframes[i];
+            let j = frame.scan;
+            let map: Vec<Point2> = frame
+                .points
+                .iter()
+                .map(|p| self.poses[j].transform_point(*p))
+                .collect();
+            let field = self.field_of(&map);
             let prior = PosePrior {
                 mean: self.poses[k],
                 sigma_forward_m: radius / 3.0,
@@ -413,7 +494,7 @@ impl<'c> Mapper<'c> {
                 max_window_m: radius,
                 ..config.register.clone()
             };
-            let reg = register(&field, &self.points[k], &prior, &reg_config)?;
+            let reg = register(&field, self.points(k), &prior, &reg_config)?;
             let share = reg.matched as f64 / reg.points.max(1) as f64;
             let rival_far = reg.rival.is_none_or(|r| r.below_best_ln >= c.min_rival_gap_ln);
             if reg.accepted && share >= c.min_matched_share && rival_far {
@@ -470,10 +551,12 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
     check_config(config)?;
     let mut m = Mapper {
         config,
-        points: Vec::new(),
+        recent: VecDeque::new(),
+        first: 0,
         poses: Vec::new(),
         along_m: Vec::new(),
         edges: Vec::new(),
+        keyframes: Vec::new(),
         loops: Vec::new(),
         searches: 0,
     };
@@ -490,10 +573,10 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
             Some(Step::Odometry(step)) => Some(step),
             _ => None,
         };
-        m.points.push(thin_points(
-            &points,
-            config.register.spacing_m.max(config.field_resolution_m),
-        ));
+        m.remember(
+            k,
+            thin_points(&points, config.register.spacing_m.max(config.field_resolution_m)),
+        );
         let (dead_reckoning, registered) = match meta.last() {
             None => {
                 origin = scan.recorded;
@@ -520,8 +603,11 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
             registered,
         });
         let every = config.loops.every_scans;
-        if every > 0 && k > 0 && k % every == 0 && m.close_loops(k)? {
-            m.optimise();
+        if every > 0 {
+            m.file_keyframe(k);
+            if k > 0 && k % every == 0 && m.close_loops(k)? {
+                m.optimise();
+            }
         }
         progress();
     }
@@ -547,6 +633,7 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
         scans: meta,
         loops: m.loops.into_iter().map(|(l, _)| l).collect(),
         loop_searches: m.searches,
+        keyframes: m.keyframes.len(),
         graph,
     })
 }

@@ -63,11 +63,16 @@ fn cast(walls: &[[f64; 4]], o: [f64; 2], d: [f64; 2]) -> Option<f64> {
 /// along each side and turns of 30° at the corners, as a real robot's log
 /// has them.
 fn true_path() -> Vec<Pose2> {
+    laps(2)
+}
+
+/// `n` times round the ring corridor (the last side left out).
+fn laps(n: usize) -> Vec<Pose2> {
     let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5]];
     let mut path = vec![Pose2::new(2.0, 1.5, 0.0)];
-    for lap in 0..2 {
+    for lap in 0..n {
         for c in 0..4 {
-            if lap == 1 && c == 3 {
+            if lap + 1 == n && c == 3 {
                 break;
             }
             let [x1, y1] = corners[(c + 1) % 4];
@@ -183,6 +188,23 @@ fn a_simulated_log_is_mapped_to_its_true_path_and_the_loop_closes() {
         let d = path[l.from].between(&path[l.to]).translation().norm();
         assert!(d < 1.5, "a loop between scans {d} m apart: {l:?}");
     }
+}
+
+#[test]
+fn places_kept_for_revisits_grow_with_the_ground_not_the_log() {
+    let (_d2, _l2, two) = registered(&simulated_log(&laps(2), true, 3));
+    let (_d5, _l5, five) = registered(&simulated_log(&laps(5), true, 3));
+    assert!(five.scans.len() > 2 * two.scans.len());
+    // The ring is 26 m round: about one keyframe a metre, once.
+    assert!((20..=40).contains(&two.keyframes), "{} keyframes", two.keyframes);
+    assert!(
+        five.keyframes <= two.keyframes + 2,
+        "{} keyframes after 5 laps, {} after 2",
+        five.keyframes,
+        two.keyframes
+    );
+    // Every lap after the first closes loops against the keyframes.
+    assert!(five.loops.iter().filter(|l| l.kept).count() > two.loops.len());
 }
 
 #[test]
