@@ -50,8 +50,9 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
     )?;
     let loops = &mapped.registered.loops;
     let kept = loops.iter().filter(|l| l.kept).count();
+    let recognised = loops.iter().filter(|l| l.kept && l.recognised).count();
     outln!(
-        "{kept} loops closed ({} revisit searches among {} places kept; {} matches dropped as inconsistent with the rest of the graph)",
+        "{kept} loops closed, {recognised} of them found by the place index ({} revisit searches among {} places kept; {} matches dropped as inconsistent with the rest of the graph)",
         mapped.registered.loop_searches,
         mapped.registered.keyframes,
         loops.len() - kept

@@ -6,7 +6,7 @@
 //!
 //! The log is streamed twice (registration, then the grid): memory holds
 //! the poses, the thinned endpoints of the last few dozen scans (the local
-//! map) and the keyframes' maps (one per metre of ground covered, for
+//! map) and the keyframes' maps (one per half metre of ground, for
 //! revisits), never the log's lines: a log that goes round the same
 //! building for hours needs little more than one that goes round once.
 
@@ -22,8 +22,11 @@ use crate::register::{
 };
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
+use revisits::{Keyframes, Track};
 use std::collections::VecDeque;
 use std::path::Path;
+
+mod revisits;
 
 /// How far raw odometry may stray, one standard deviation.
 #[derive(Debug, Clone, PartialEq)]
@@ -111,7 +114,8 @@ pub struct LoopConfig {
     pub anchor_scans: usize,
     /// A scan becomes a keyframe (a place kept for revisits) when no
     /// keyframe lies this close to it, metres: the places kept grow with
-    /// the ground covered, not with the log's length.
+    /// the ground covered, not with the log's length. At most `radius_m`,
+    /// so that a revisit has a keyframe within the search near it.
     pub keyframe_spacing_m: f64,
     /// At most this many candidates per search (the nearest, each at
     /// least `min_separation_m` along the path from the others).
@@ -121,14 +125,35 @@ pub struct LoopConfig {
     pub min_matched_share: f64,
     /// ... and no rival pose scores within this many nats of the best.
     pub min_rival_gap_ln: f64,
+    /// Where no keyframe lies near the estimate and the estimate may be
+    /// lost (a step since the last loop closed was not registered, or the
+    /// path since then is long enough for drift to exceed `max_radius_m`),
+    /// up to this many keyframes that the place index finds by view are
+    /// tried (0: none) ...
+    pub index_candidates: usize,
+    /// ... those whose view differs from the local map's by at most this
+    /// RMS, metres ...
+    pub max_profile_rms_m: f64,
+    /// ... each searched within ±3 of this σ of its position, metres; a
+    /// match counts once the next search's match (at most two searches
+    /// on) moves the estimate the same way ...
+    pub index_sigma_m: f64,
+    /// ... within this distance, metres ...
+    pub confirm_m: f64,
+    /// ... and within this heading, radians.
+    pub confirm_rad: f64,
 }
 
 impl Default for LoopConfig {
     /// A keyframe (its scan and 10 each side) wherever none lies within
-    /// 1 m; every 5th scan searched among the keyframes 8 m or more back
+    /// 0.5 m; every 5th scan searched among the keyframes 8 m or more back
     /// along the path, within 0.5 m plus 2 % of the path since (at most
     /// 3 m) and ±15° of the estimate; up to 2 candidates; a match with
-    /// 60 % of the endpoints on the map and no rival within 10 nats.
+    /// 60 % of the endpoints on the map and no rival within 10 nats. Where
+    /// the estimate may be lost, the 2 keyframes whose views the place
+    /// index finds within 1 m RMS of the local map's, each searched
+    /// ±1.5 m about it; such a match counts once the next one moves the
+    /// estimate the same way within 0.3 m and 5°.
     fn default() -> Self {
         Self {
             every_scans: 5,
@@ -138,10 +163,15 @@ impl Default for LoopConfig {
             max_radius_m: 3.0,
             sigma_rad: 5f64.to_radians(),
             anchor_scans: 10,
-            keyframe_spacing_m: 1.0,
+            keyframe_spacing_m: 0.5,
             max_candidates: 2,
             min_matched_share: 0.6,
             min_rival_gap_ln: 10.0,
+            index_candidates: 2,
+            max_profile_rms_m: 1.0,
+            index_sigma_m: 0.5,
+            confirm_m: 0.3,
+            confirm_rad: 5f64.to_radians(),
         }
     }
 }
@@ -255,6 +285,21 @@ pub fn check_config(config: &LaserConfig) -> Result<()> {
     if config.local_scans == 0 {
         bail!("the local map must hold at least one scan");
     }
+    let l = &config.loops;
+    let spreads = [
+        l.min_separation_m,
+        l.radius_m,
+        l.max_radius_m,
+        l.sigma_rad,
+        l.keyframe_spacing_m,
+        l.max_profile_rms_m,
+        l.index_sigma_m,
+        l.confirm_m,
+        l.confirm_rad,
+    ];
+    if !(spreads.into_iter().all(positive) && l.radius_per_m.is_finite() && l.radius_per_m >= 0.0) {
+        bail!("loop closure's distances, spreads and tolerances must be positive: {l:?}");
+    }
     OccupancyGrid::new(config.grid.clone()).context("grid settings")?;
     Ok(())
 }
@@ -266,6 +311,9 @@ pub struct LoopClosure {
     pub from: usize,
     /// The scan that came back.
     pub to: usize,
+    /// Whether the place index found it (the estimate put the scan too far
+    /// from the earlier one for the search near it).
+    pub recognised: bool,
     /// Whether the pose graph kept it (a match the rest of the graph
     /// contradicts is dropped).
     pub kept: bool,
@@ -299,20 +347,12 @@ struct Mapper<'c> {
     poses: Vec<Pose2>,
     along_m: Vec<f64>,
     edges: Vec<GraphEdge>,
-    keyframes: Vec<Keyframe>,
+    keyframes: Keyframes,
     loops: Vec<(LoopClosure, usize)>,
-    searches: usize,
-}
-
-/// A place kept for revisits: a scan and the endpoints of its neighbours
-/// along the path, in its frame.
-struct Keyframe {
-    /// The scan.
-    scan: usize,
-    /// The path length to the last scan of its map, metres.
-    last_along_m: f64,
-    /// The map's endpoints, thinned, in the scan's frame.
-    points: Vec<Point2>,
+    /// Whether a step since the last loop closed was not registered.
+    lost: bool,
+    /// The path length at the last loop closed, metres.
+    closed_at_m: f64,
 }
 
 /// The least spread of a step's or a loop's measured relative pose, one
@@ -359,34 +399,43 @@ impl<'c> Mapper<'c> {
         debug_assert_eq!(self.first + self.recent.len(), k + 1);
     }
 
+    /// The poses and path lengths so far.
+    fn track(&self) -> Track<'_> {
+        Track {
+            poses: &self.poses,
+            along_m: &self.along_m,
+        }
+    }
+
     /// Makes scan `k − anchor_scans` a keyframe (its neighbours now all
     /// placed) where no keyframe lies near it.
-    fn file_keyframe(&mut self, k: usize) {
+    fn file_keyframe(&mut self, k: usize) -> Result<()> {
         let c = &self.config.loops;
         let Some(j) = k.checked_sub(c.anchor_scans) else {
-            return;
+            return Ok(());
         };
-        let here = self.poses[j].translation();
-        let near = self.keyframes.iter().any(|f| {
-            let t = self.poses[f.scan].translation();
-            (t.x - here.x).hypot(t.y - here.y) < c.keyframe_spacing_m
-        });
-        if near {
-            return;
+        if !self.keyframes.wanted(self.config, &self.track(), j) {
+            return Ok(());
         }
+        let points = self.points_in_frame(j, j.saturating_sub(c.anchor_scans)..k + 1);
+        // Its view: every scan remembered, the 180° scanners' blind backs
+        // filled by the scans before.
+        let seen = self.points_in_frame(j, self.first..k + 1);
+        let spacing = self.config.register.spacing_m.max(self.config.field_resolution_m);
+        let along = self.along_m[k];
+        self.keyframes
+            .file(self.config, j, along, thin_points(&points, spacing), &seen)
+    }
+
+    /// The endpoints of recent scans `range` in scan `j`'s frame.
+    fn points_in_frame(&self, j: usize, range: std::ops::Range<usize>) -> Vec<Point2> {
         let to_j = self.poses[j].inverse();
-        let points: Vec<Point2> = (j.saturating_sub(c.anchor_scans)..=k)
+        range
             .flat_map(|m| {
                 let rel = to_j * self.poses[m];
                 self.points(m).iter().map(move |p| rel.transform_point(*p))
             })
-            .collect();
-        let spacing = self.config.register.spacing_m.max(self.config.field_resolution_m);
-        self.keyframes.push(Keyframe {
-            scan: j,
-            last_along_m: self.along_m[k],
-            points: thin_points(&points, spacing),
-        });
+            .collect()
     }
 
     /// An edge `i → j` measuring `j`'s registered pose `pose_j` (with its
@@ -436,82 +485,51 @@ impl<'c> Mapper<'c> {
         Ok(reg.accepted)
     }
 
-    /// The keyframes that scan `k` may be revisiting, nearest first, with
-    /// the search radius of each.
-    fn loop_candidates(&self, k: usize) -> Vec<(usize, f64)> {
-        let c = &self.config.loops;
-        let here = self.poses[k].translation();
-        let mut near: Vec<(usize, f64, f64)> = (self.keyframes.iter().enumerate())
-            .filter(|(_, f)| self.along_m[k] - f.last_along_m >= c.min_separation_m)
-            .filter_map(|(i, f)| {
-                let d = self.poses[f.scan].translation();
-                let dist = (d.x - here.x).hypot(d.y - here.y);
-                let since = self.along_m[k] - self.along_m[f.scan];
-                let radius = (c.radius_m + c.radius_per_m * since).min(c.max_radius_m);
-                (dist <= radius).then_some((i, dist, radius))
-            })
-            .collect();
-        near.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let mut chosen: Vec<(usize, f64)> = Vec::new();
-        for (i, _, radius) in near {
-            if chosen.len() == c.max_candidates {
-                break;
-            }
-            let along = |i: usize| self.along_m[self.keyframes[i].scan];
-            if chosen
-                .iter()
-                .all(|&(o, _)| (along(o) - along(i)).abs() >= c.min_separation_m)
-            {
-                chosen.push((i, radius));
-            }
-        }
-        chosen
-    }
-
     /// Searches the keyframes for the place of scan `k`; each match found
     /// becomes a loop edge. Whether any did.
     fn close_loops(&mut self, k: usize) -> Result<bool> {
-        let config = self.config;
-        let c = &config.loops;
-        let mut found = false;
-        for (i, radius) in self.loop_candidates(k) {
-            self.searches += 1;
-            let frame = &self.keyframes[i];
-            let j = frame.scan;
-            let map: Vec<Point2> = frame
-                .points
-                .iter()
-                .map(|p| self.poses[j].transform_point(*p))
-                .collect();
-            let field = self.field_of(&map);
-            let prior = PosePrior {
-                mean: self.poses[k],
-                sigma_forward_m: radius / 3.0,
-                sigma_left_m: radius / 3.0,
-                sigma_theta_rad: c.sigma_rad,
-            };
-            let reg_config = RegisterConfig {
-                max_window_m: radius,
-                ..config.register.clone()
-            };
-            let reg = register(&field, self.points(k), &prior, &reg_config)?;
-            let share = reg.matched as f64 / reg.points.max(1) as f64;
-            let rival_far = reg.rival.is_none_or(|r| r.below_best_ln >= c.min_rival_gap_ln);
-            if reg.accepted && share >= c.min_matched_share && rival_far {
-                let edge = self.edge(j, k, &reg.pose, &reg.covariance, Kernel::Cauchy { c: 1.0 });
-                self.edges.push(edge);
-                self.loops.push((
-                    LoopClosure {
-                        from: j,
-                        to: k,
-                        kept: true,
-                    },
-                    self.edges.len() - 1,
-                ));
-                found = true;
-            }
+        let c = &self.config.loops;
+        // The estimate may be out of the search near it when a step since
+        // the last loop was not registered, or when the path since has
+        // grown drift beyond its radius: then the view is asked as well.
+        let drift_reach_m = (c.max_radius_m - c.radius_m) / c.radius_per_m.max(1e-9);
+        let lost = self.lost || self.along_m[k] - self.closed_at_m > drift_reach_m;
+        let local = if lost {
+            self.points_in_frame(k, k.saturating_sub(self.config.local_scans)..k + 1)
+        } else {
+            Vec::new()
+        };
+        let track = Track {
+            poses: &self.poses,
+            along_m: &self.along_m,
+        };
+        let scan = &self.recent[k - self.first];
+        let found = self
+            .keyframes
+            .search(self.config, &track, k, scan, lost.then_some(&local[..]))?;
+        if !found.is_empty() {
+            self.lost = false;
+            self.closed_at_m = self.along_m[k];
         }
-        Ok(found)
+        for f in &found {
+            let reg = &f.registration;
+            let edge = self.edge(
+                f.from,
+                f.to,
+                &reg.pose,
+                &reg.covariance,
+                Kernel::Cauchy { c: 1.0 },
+            );
+            self.edges.push(edge);
+            let closure = LoopClosure {
+                from: f.from,
+                to: f.to,
+                recognised: f.recognised,
+                kept: true,
+            };
+            self.loops.push((closure, self.edges.len() - 1));
+        }
+        Ok(!found.is_empty())
     }
 
     /// Solves the pose graph of the scans so far, drops the loop edges the
@@ -541,6 +559,7 @@ impl<'c> Mapper<'c> {
             return;
         }
         self.poses = graph.poses;
+        self.keyframes.forget_pending();
     }
 }
 
@@ -556,9 +575,10 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
         poses: Vec::new(),
         along_m: Vec::new(),
         edges: Vec::new(),
-        keyframes: Vec::new(),
+        keyframes: Keyframes::new()?,
         loops: Vec::new(),
-        searches: 0,
+        lost: false,
+        closed_at_m: 0.0,
     };
     let mut meta: Vec<ScanPose> = Vec::new();
     // The log's frame to the map frame: the first scan's recorded pose.
@@ -587,6 +607,7 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
             Some(previous) => {
                 let label = || format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line);
                 let registered = m.place(k, scan.odometry.as_ref(), &label)?;
+                m.lost |= !registered;
                 (
                     previous.dead_reckoning * scan.odometry.unwrap_or_default(),
                     registered,
@@ -604,7 +625,7 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
         });
         let every = config.loops.every_scans;
         if every > 0 {
-            m.file_keyframe(k);
+            m.file_keyframe(k)?;
             if k > 0 && k % every == 0 && m.close_loops(k)? {
                 m.optimise();
             }
@@ -632,7 +653,7 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
     Ok(RegisteredLog {
         scans: meta,
         loops: m.loops.into_iter().map(|(l, _)| l).collect(),
-        loop_searches: m.searches,
+        loop_searches: m.keyframes.searches,
         keyframes: m.keyframes.len(),
         graph,
     })
