@@ -46,7 +46,10 @@ pub fn plan_route(scene: &Scene, seed: u64) -> Vec<PlannedFrame> {
     let start = route.waypoints[0];
     let mut actual = Pose2::from_deg(start[0], start[1], route.start_heading_deg);
     let mut frames = Vec::new();
-    let step_rad = std::f64::consts::TAU / route.frames_per_sweep as f64;
+    // The commanded step in degrees, as a robot's command would be given
+    // (360/12 is 30 exactly; 2π/12 turned back into degrees is not).
+    let step_deg = 360.0 / route.frames_per_sweep as f64;
+    let step_rad = step_deg.to_radians();
 
     let turn = |actual: &mut Pose2, rng: &mut ChaCha8Rng, cmd_rad: f64| {
         let real = cmd_rad + cmd_rad.signum() * errs.turn_bias_deg.to_radians() + turn_noise.sample(rng);
@@ -69,9 +72,7 @@ pub fn plan_route(scene: &Scene, seed: u64) -> Vec<PlannedFrame> {
         // Later sweeps start with the frame captured on arrival (below).
         for k in 1..route.frames_per_sweep {
             turn(&mut actual, &mut rng, step_rad);
-            let motion = Some(Motion::Turn {
-                turn_deg: step_rad.to_degrees(),
-            });
+            let motion = Some(Motion::Turn { turn_deg: step_deg });
             frames.push(PlannedFrame {
                 sweep,
                 index_in_sweep: k,
