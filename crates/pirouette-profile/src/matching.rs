@@ -274,27 +274,89 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     let k_win = (config.window_rad / w).ceil() as i64;
     let (a, b) = (cells(after), cells(before));
     let min_overlap = ((config.min_overlap_rad / w).ceil() as usize).max(3);
-    let (k_lo, k_hi) = (k_cmd - k_win, k_cmd + k_win);
-    let best_of = |curve: &CostCurve| {
-        (0..curve.cost.len())
-            .filter(|&j| curve.comparable(j, min_overlap))
-            .min_by(|&x, &y| curve.cost[x].total_cmp(&curve.cost[y]))
+    // The cost of every turn in the window, at the profiles' own noise.
+    let window = (offset, k_cmd - k_win, k_cmd + k_win);
+    let Some((curve, sigma)) = cost_curves(&a, &b, window, min_overlap, config) else {
+        return fallback(Evidence::NoOverlap, 0.0, 0, None);
     };
-    // First pass with the nominal noise; then the noise measured in the
-    // residuals of that best match sets the scale of the costs and of the
-    // significance (the profiles' own noise, not an assumed one).
+    let Some(best) = best_shift(&curve, min_overlap) else {
+        return fallback(Evidence::NoOverlap, 0.0, 0, None);
+    };
+    let ranked = Ranked {
+        curve: &curve,
+        best,
+        min_overlap,
+    };
+    let k_best = curve.k_lo + best as i64;
+    let overlap_bins = curve.overlap[best];
+    // Structure of the overlap at the best shift: is there anything to match?
+    let structure = structure(&a, &b, offset + k_best, sigma as f64);
+    if structure < config.min_structure {
+        return fallback(Evidence::Aperture, 0.0, overlap_bins, Some(k_best as f64 * w));
+    }
+    // How far the best stands out from its rivals.
+    let confidence = ranked.confidence(w, config);
+    // Below one bin.
+    let k = k_best as f64 + ranked.sub_bin();
+    let at_edge = best == 0 || best + 1 == curve.cost.len();
+    if at_edge || confidence < config.min_confidence {
+        return fallback(Evidence::Ambiguous, confidence, overlap_bins, Some(k * w));
+    }
+    let evidence = if curve.colour_pairs[best] > 0 {
+        Evidence::RangeAndColour
+    } else {
+        Evidence::Range
+    };
+    // With the robot's small shift during the turn.
+    let refined = (config.turn_shift_m > 0.0)
+        .then(|| refine_with_shift(before, after, k * w, sigma as f64, config))
+        .flatten();
+    let turn = refined.map_or(k * w, |(turn, _)| turn);
+    TurnEstimate {
+        turn_rad: turn,
+        confidence,
+        fallback: false,
+        evidence,
+        overlap_bins,
+        candidate_rad: Some(turn),
+        shift: refined.map(|(_, shift)| shift),
+    }
+}
+
+/// The lowest cost among the shifts that overlap enough.
+fn best_shift(curve: &CostCurve, min_overlap: usize) -> Option<usize> {
+    (0..curve.cost.len())
+        .filter(|&j| curve.comparable(j, min_overlap))
+        .min_by(|&x, &y| curve.cost[x].total_cmp(&curve.cost[y]))
+}
+
+/// The cost curve of cells `a` (after) shifted against `b` (before) over
+/// `window` = (offset of `a`'s first bin in `b`'s, first and last shift),
+/// and the inverse-range noise it is scaled by.
+///
+/// A first pass with the nominal noise; then the noise measured in the
+/// residuals of that best match sets the scale of the costs and of the
+/// significance (the profiles' own noise, not an assumed one).
+fn cost_curves(
+    a: &[Cell],
+    b: &[Cell],
+    window: (i64, i64, i64),
+    min_overlap: usize,
+    config: &MatchConfig,
+) -> Option<(CostCurve, f32)> {
+    let (offset, k_lo, k_hi) = window;
     // The profile after the turn, padded to whole blocks of the inner
     // loop; the one before, over every bin some shift compares with it.
     let a_len = a.len().div_ceil(LANES) as i64 * LANES as i64;
-    let sa = Signals::new(&a, 0..a_len);
-    let sb = Signals::new(&b, offset + k_lo..offset + k_hi + a_len);
+    let sa = Signals::new(a, 0..a_len);
+    let sb = Signals::new(b, offset + k_lo..offset + k_hi + a_len);
     // Each informative pair's inverse-range gap, kept from the first pass
     // so that the second need not compare the profiles again; in the
     // thread's buffer, which every pass writes before it reads.
-    let curves = KEPT_GAPS.with_borrow_mut(|gaps| {
+    KEPT_GAPS.with_borrow_mut(|gaps| {
         let nominal = cost_curve(&sa, &sb, k_lo, k_hi, config.inverse_range_sigma, config, gaps);
-        let first = best_of(&nominal)?;
-        let sigma = residual_sigma(&a, &b, offset + k_lo + first as i64)
+        let first = best_shift(&nominal, min_overlap)?;
+        let sigma = residual_sigma(a, b, offset + k_lo + first as i64)
             .map_or(config.inverse_range_sigma, |s| {
                 s.clamp(config.min_inverse_range_sigma, config.inverse_range_sigma)
             });
@@ -308,96 +370,94 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
             nominal.rescaled(gaps, sigma, config)
         };
         Some((curve, sigma))
-    });
-    let Some((curve, sigma)) = curves else {
-        return fallback(Evidence::NoOverlap, 0.0, 0, None);
-    };
-    let Some(best) = best_of(&curve) else {
-        return fallback(Evidence::NoOverlap, 0.0, 0, None);
-    };
-    // A rival must rest on at least half as many informative pairs as the
-    // best: a mean cost over far fewer pairs is judged on too little.
-    let valid =
-        |j: usize| curve.comparable(j, min_overlap) && 2 * curve.informative[j] >= curve.informative[best];
-    let k_best = curve.k_lo + best as i64;
-    let overlap_bins = curve.overlap[best];
+    })
+}
 
-    // Structure of the overlap at the best shift: is there anything to match?
-    let structure = structure(&a, &b, offset + k_best, sigma as f64);
-    if structure < config.min_structure {
-        return fallback(Evidence::Aperture, 0.0, overlap_bins, Some(k_best as f64 * w));
+/// A cost curve with its best shift, weighed against its rivals.
+struct Ranked<'c> {
+    curve: &'c CostCurve,
+    best: usize,
+    min_overlap: usize,
+}
+
+impl Ranked<'_> {
+    /// Whether shift `j` can rival the best: it overlaps enough, and rests
+    /// on at least half as many informative pairs (a mean cost over far
+    /// fewer pairs is judged on too little).
+    fn valid(&self, j: usize) -> bool {
+        let c = self.curve;
+        c.comparable(j, self.min_overlap) && 2 * c.informative[j] >= c.informative[self.best]
     }
-    // Distinctness as significance: a rival's excess cost summed over the
-    // informative bins, in standard deviations of a sum of that many bins'
-    // noise costs (neighbouring fine bins share their errors: one sample
-    // per `correlation_rad`). The rivals are the lowest other local minimum
-    // (window ends included: a competitor may lie beyond them) and the
-    // lower arm of the best one's basin (a broad bowl is no verification).
-    let basin = ((config.basin_rad / w).ceil() as usize).max(2);
-    let cost = |j: usize| if valid(j) { curve.cost[j] } else { f64::INFINITY };
-    let last = curve.cost.len() - 1;
-    let is_local_min =
-        |j: usize| valid(j) && (j == 0 || cost(j) <= cost(j - 1)) && (j == last || cost(j) <= cost(j + 1));
-    let other_min = (0..curve.cost.len())
-        .filter(|&j| j.abs_diff(best) > basin && is_local_min(j))
-        .map(cost)
-        .fold(f64::INFINITY, f64::min);
-    let arm = [best.checked_sub(basin), Some(best + basin).filter(|&j| j <= last)]
-        .into_iter()
-        .flatten()
-        .map(cost)
-        .fold(f64::INFINITY, f64::min);
-    let c0 = curve.cost[best];
-    let n_eff = curve.informative[best] as f64 * (w / config.correlation_rad).min(1.0);
-    let z = |rival: f64| {
-        if rival.is_finite() {
-            (rival - c0).max(0.0) * n_eff / (noise_cost_sd(config.measure) * n_eff.max(1.0).sqrt())
+
+    /// The cost of shift `j`, infinite where it cannot rival.
+    fn cost(&self, j: usize) -> f64 {
+        if self.valid(j) {
+            self.curve.cost[j]
         } else {
             f64::INFINITY
         }
-    };
-    // A basin neither of whose arms can be weighed was never tested: its
-    // minimum verifies nothing, however alone it stands.
-    let z_best = if arm.is_finite() {
-        z(other_min).min(z(arm))
-    } else {
-        0.0
-    };
-    let confidence = if z_best.is_finite() {
-        z_best / (z_best + CONFIDENCE_HALF_Z)
-    } else {
-        1.0
-    };
-    // Below one bin: a parabola through the best and its neighbours.
-    let mut k = k_best as f64;
-    if best > 0 && best + 1 < curve.cost.len() && valid(best - 1) && valid(best + 1) {
-        let (cm, cp) = (curve.cost[best - 1], curve.cost[best + 1]);
-        let denom = cm - 2.0 * c0 + cp;
-        if denom > 1e-12 {
-            k += (0.5 * (cm - cp) / denom).clamp(-0.5, 0.5);
+    }
+
+    /// Distinctness as significance, mapped to `[0, 1]`: a rival's excess
+    /// cost summed over the informative bins, in standard deviations of a
+    /// sum of that many bins' noise costs (neighbouring fine bins share
+    /// their errors: one sample per `correlation_rad`). The rivals are the
+    /// lowest other local minimum (window ends included: a competitor may
+    /// lie beyond them) and the lower arm of the best one's basin (a broad
+    /// bowl is no verification).
+    fn confidence(&self, w: f64, config: &MatchConfig) -> f64 {
+        let (curve, best) = (self.curve, self.best);
+        let basin = ((config.basin_rad / w).ceil() as usize).max(2);
+        let last = curve.cost.len() - 1;
+        let is_local_min = |j: usize| {
+            self.valid(j)
+                && (j == 0 || self.cost(j) <= self.cost(j - 1))
+                && (j == last || self.cost(j) <= self.cost(j + 1))
+        };
+        let other_min = (0..curve.cost.len())
+            .filter(|&j| j.abs_diff(best) > basin && is_local_min(j))
+            .map(|j| self.cost(j))
+            .fold(f64::INFINITY, f64::min);
+        let arm = [best.checked_sub(basin), Some(best + basin).filter(|&j| j <= last)]
+            .into_iter()
+            .flatten()
+            .map(|j| self.cost(j))
+            .fold(f64::INFINITY, f64::min);
+        let c0 = curve.cost[best];
+        let n_eff = curve.informative[best] as f64 * (w / config.correlation_rad).min(1.0);
+        let z = |rival: f64| {
+            if rival.is_finite() {
+                (rival - c0).max(0.0) * n_eff / (noise_cost_sd(config.measure) * n_eff.max(1.0).sqrt())
+            } else {
+                f64::INFINITY
+            }
+        };
+        // A basin neither of whose arms can be weighed was never tested:
+        // its minimum verifies nothing, however alone it stands.
+        let z_best = if arm.is_finite() {
+            z(other_min).min(z(arm))
+        } else {
+            0.0
+        };
+        if z_best.is_finite() {
+            z_best / (z_best + CONFIDENCE_HALF_Z)
+        } else {
+            1.0
         }
     }
-    let at_edge = best == 0 || best + 1 == curve.cost.len();
-    if at_edge || confidence < config.min_confidence {
-        return fallback(Evidence::Ambiguous, confidence, overlap_bins, Some(k * w));
-    }
-    let evidence = if curve.colour_pairs[best] > 0 {
-        Evidence::RangeAndColour
-    } else {
-        Evidence::Range
-    };
-    let refined = (config.turn_shift_m > 0.0)
-        .then(|| refine_with_shift(before, after, k * w, sigma as f64, config))
-        .flatten();
-    let turn = refined.map_or(k * w, |(turn, _)| turn);
-    TurnEstimate {
-        turn_rad: turn,
-        confidence,
-        fallback: false,
-        evidence,
-        overlap_bins,
-        candidate_rad: Some(turn),
-        shift: refined.map(|(_, shift)| shift),
+
+    /// The best shift's offset below one bin: the vertex of a parabola
+    /// through it and its neighbours (0 where they cannot rival it).
+    fn sub_bin(&self) -> f64 {
+        let (curve, best) = (self.curve, self.best);
+        if best > 0 && best + 1 < curve.cost.len() && self.valid(best - 1) && self.valid(best + 1) {
+            let (cm, c0, cp) = (curve.cost[best - 1], curve.cost[best], curve.cost[best + 1]);
+            let denom = cm - 2.0 * c0 + cp;
+            if denom > 1e-12 {
+                return (0.5 * (cm - cp) / denom).clamp(-0.5, 0.5);
+            }
+        }
+        0.0
     }
 }
 
