@@ -2,16 +2,18 @@
 
 mod decide;
 mod noise;
+mod rows;
 mod seed;
 mod texture;
 
 use crate::config::{VisionConfig, VisionError};
-use crate::scan::{Candidate, Candidates, Classifier, Lanes};
+use crate::scan::{Classifier, Lanes};
 use crate::ColumnBoundary;
 use noise::{grey_noise_sigma, noise_sigma};
 use pirouette_camera::{CameraModel, FloorTable};
 use pirouette_profile::filter;
 use pirouette_profile::{ColourTag, Rop};
+use rows::RowScan;
 use seed::{Seed, SEED_ROWS};
 
 /// Turns camera images into boundaries and profiles. Built once per camera:
@@ -336,136 +338,23 @@ impl RopExtractor {
         let Some(mut cols) = alive_span(&lanes, 0..m) else {
             return out;
         };
-        let edge_classifier = classifier.scaled(self.config.edge_fraction);
-        let bright_classifier = classifier.scaled_both(self.config.edge_fraction);
-        let faint_classifier = classifier.scaled_both(self.config.faint_step_fraction);
-        let grey_sigma = if self.config.texture_ratio > 0.0 {
-            grey_noise_sigma(px, self.width, self.height)
-        } else {
-            0.0
-        };
-        let (rate, trend_rate) = (self.config.adapt_rate, self.config.trend_rate);
+        let mut scan = RowScan::new(self, px, classifier, lanes, out);
         let mut ends = self.columns_by_top.iter().peekable();
-        // Candidate obstacle bases whose runs are still being scanned.
-        let mut candidates = Candidates::new(m, n as usize);
-        // Columns scanned past their topmost floor row only to finish a run.
-        let mut past_top = vec![false; m];
-        // Columns whose first candidate can be decided at the current row.
-        let mut ready = Vec::new();
         let mut v = n - SEED_ROWS - 1;
         loop {
-            lanes.step(
-                px,
-                v as usize,
-                (&classifier, &bright_classifier, faint_classifier.brightness_step),
-                (rate, trend_rate),
-                cols.clone(),
-            );
-            for u in lanes.off_columns(cols.clone()) {
-                if past_top[u] {
-                    continue;
-                }
-                let run = self.run_rows[v as usize * m + u].max(1) as u32;
-                candidates.push(
-                    u,
-                    Candidate {
-                        row: v,
-                        lo: (v + 1).saturating_sub(run),
-                        // This row is one of the column's rows not floor.
-                        off_before: lanes.off_rows(u) - 1,
-                        floor: lanes.predicted(u),
-                        trend: lanes.trend_before(u),
-                        edge: false,
-                    },
-                );
-            }
-            // Sharp steps within the floor's tolerances, of chromaticity and
-            // (with the texture cue) of brightness alone where the texture
-            // drops above them, by more above faint steps: followed over
-            // their runs at once, queued only when they are an obstacle's
-            // base.
-            let chroma_edges = lanes.edge_columns(cols.clone()).filter(|&u| {
-                !past_top[u]
-                    && self.edge_confirms(px, u as u32, v, lanes.coasted(u, trend_rate), &edge_classifier)
-            });
-            // A step of brightness alone, tested with its tolerances and
-            // texture ratio.
-            let brightness_step = |u: usize, test: (&Classifier, f32)| {
-                !past_top[u]
-                    && self.bright_edge_confirms(
-                        px,
-                        u as u32,
-                        v,
-                        test,
-                        grey_sigma,
-                        (&lanes.predicted(u), &classifier),
-                    )
-            };
-            let bright_edges = (self.config.texture_ratio > 0.0)
-                .then(|| lanes.bright_edge_columns(cols.clone()))
-                .into_iter()
-                .flatten()
-                .filter(|&u| brightness_step(u, (&bright_classifier, self.config.texture_ratio)));
-            let faint_edges = self
-                .config
-                .faint_steps()
-                .then(|| lanes.faint_edge_columns(cols.clone()))
-                .into_iter()
-                .flatten()
-                .filter(|&u| brightness_step(u, (&faint_classifier, self.config.faint_texture_ratio)));
-            for u in chroma_edges.chain(bright_edges).chain(faint_edges) {
-                candidates.push(
-                    u,
-                    Candidate {
-                        row: v,
-                        lo: v,
-                        off_before: lanes.off_rows(u),
-                        floor: lanes.predicted(u),
-                        trend: lanes.trend_before(u),
-                        edge: true,
-                    },
-                );
-            }
-            // Decide the candidates whose runs end here, in scan order: the
-            // first that is an obstacle ends the column.
-            candidates.complete_row(v as usize, |u| lanes.off_rows(u), &mut ready);
-            for &u in &ready {
-                while let Some((c, off)) = candidates.decidable(u) {
-                    if let Some(b) = self.decide(px, u as u32, &c, off, &classifier) {
-                        out[u] = b;
-                        lanes.stop(u);
-                        candidates.clear(u);
-                        break;
-                    }
-                    candidates.pop(u);
-                }
-                if lanes.is_alive(u) && past_top[u] && candidates.is_empty(u) {
-                    out[u] = ColumnBoundary::Clear {
-                        top_row: self.top_floor[u],
-                    };
-                    lanes.stop(u);
-                }
-            }
-            // Columns whose floor ends at this row see nothing, once their
-            // candidates are decided.
-            while let Some(&&u) = ends.peek() {
-                if self.top_floor[u as usize] < v {
-                    break;
-                }
-                ends.next();
-                let u = u as usize;
-                if lanes.is_alive(u) {
-                    if candidates.is_empty(u) {
-                        out[u] = ColumnBoundary::Clear { top_row: v };
-                        lanes.stop(u);
-                    } else {
-                        past_top[u] = true;
-                    }
-                }
-            }
-            match alive_span(&lanes, cols) {
+            // The live columns' floor models take the row.
+            scan.step(v, cols.clone());
+            // Rows off the floor, and sharp steps within its tolerances:
+            // candidate obstacle bases.
+            scan.queue_off_floor(v, cols.clone());
+            scan.queue_edges(v, cols.clone());
+            // The candidates whose runs end here decided.
+            scan.decide_row(v);
+            // Columns whose floor ends at this row.
+            scan.end_columns(v, &mut ends);
+            match alive_span(&scan.lanes, cols) {
                 Some(next) if v > 0 => cols = next,
-                _ => return out,
+                _ => return scan.out,
             }
             v -= 1;
         }
