@@ -25,6 +25,9 @@ pub enum Step {
 pub struct Frame {
     /// A name for reports: the image's path in its dataset.
     pub label: String,
+    /// The sweep it belongs to, as the sensor's log numbers them (a
+    /// camera manifest's sweep; a laser scan's own position in its log).
+    pub sweep: u32,
     /// The motion since the previous frame; `None` for the first, and
     /// where the sensor's log holds none.
     pub motion: Option<Step>,
@@ -48,6 +51,7 @@ pub fn camera_frames(ds: &Dataset, rops: Vec<Rop>, compared: Vec<Rop>, matched: 
         .zip(rops.into_iter().zip(compared).zip(matched))
         .map(|(f, ((rop, compared), matched))| Frame {
             label: f.image.clone(),
+            sweep: f.sweep,
             motion: f.motion.map(Step::Commanded),
             rop,
             compared,
@@ -80,6 +84,7 @@ pub fn laser_frame(scan: &LaserScan, max_range_m: f32) -> Frame {
     rop.range_m.clone_from(&scan.ranges_m);
     Frame {
         label: format!("scan {}", scan.scan),
+        sweep: u32::try_from(scan.scan).unwrap_or(u32::MAX),
         motion: scan.odometry.map(Step::Odometry),
         compared: rop.clone(),
         matched: rop.clone(),

@@ -137,15 +137,20 @@ pub fn sweep_dataset(
     } = sweep_profiles(ds, config.model, config.vision.clone(), || {
         progress(Stage::Profiled)
     })?;
-    // Turns verified and sweeps assembled, about the pivot the turns measure.
-    let (sweeps, sweep_config) = sweeps(ds, &extractor, &rops, &matched, &config.sweep);
+    // The back end's input: each frame's profiles and motion.
+    let frames = camera_frames(ds, rops, compared, matched);
+    // Turns verified and sweeps assembled, about the pivot the turns
+    // measure, to a tenth of the camera's finest row step.
+    let least_sigma = extractor
+        .table()
+        .finest_inverse_range_step()
+        .map(|step| (step * SUB_PIXEL_ROWS) as f32);
+    let (sweeps, sweep_config) = sweeps(&frames, least_sigma, &config.sweep);
     // The floor nearer than the bottom row is not seen.
     let blind_m = extractor
         .table()
         .blind_range()
         .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
-    // The back end's input: each frame's profiles and motion.
-    let frames = camera_frames(ds, rops, compared, matched);
     Ok(Swept {
         extractor,
         frames,
@@ -320,54 +325,45 @@ pub struct DatasetSweep {
     pub sweep: Sweep,
 }
 
-/// Groups the frames of a dataset into sweeps (a new sweep starts at a
-/// frame without a commanded turn: the first frame or a forward move) and
-/// assembles each from its profiles, about the point the robot turns
-/// about as its own turns measure it ([`pivot_from_turns`]): assembled
-/// about `config`'s pivot, then again about the one their verified turns'
-/// shifts give, until it moves less than a tenth of a millimetre (each
-/// round refines the turns from the shifts the last round's pivot
-/// predicts, and their robust fits keep the inliers near there). The turns
-/// are verified on `matched` (one profile per frame, as `rops`: see
-/// [`sweep_profiles`]; `rops` itself where there are no others), and
-/// each sweep's 360° profile is joined from `rops`. The least noise a
-/// match may measure
+/// Groups frames into sweeps (a new sweep starts at a frame without a
+/// commanded turn: the first frame or a forward move) and assembles each
+/// from its profiles, about the point the robot turns about as its own
+/// turns measure it ([`pivot_from_turns`]): assembled about `config`'s
+/// pivot, then again about the one their verified turns' shifts give,
+/// until it moves less than a tenth of a millimetre (each round refines
+/// the turns from the shifts the last round's pivot predicts, and their
+/// robust fits keep the inliers near there). The turns are verified on
+/// each frame's `matched` profile and each sweep's 360° profile is joined
+/// from its `rop`s. `least_sigma`, where given, is the least noise a match
+/// may measure
 /// ([`pirouette_profile::matching::MatchConfig::min_inverse_range_sigma`])
-/// is a tenth of the least change of inverse range between two adjacent
-/// rows of `extractor`'s camera, in place of `config`'s: a boundary is
-/// found to about a tenth of a row. Returns the sweeps and the settings
-/// they were assembled with.
-///
-/// # Panics
-/// When `matched` and `rops` differ in length.
+/// in place of `config`'s (what the sensor resolves). Returns the sweeps
+/// and the settings they were assembled with.
 pub fn sweeps(
-    ds: &Dataset,
-    extractor: &RopExtractor,
-    rops: &[Rop],
-    matched: &[Rop],
+    frames: &[Frame],
+    least_sigma: Option<f32>,
     config: &SweepConfig,
 ) -> (Vec<DatasetSweep>, SweepConfig) {
-    assert_eq!(rops.len(), matched.len(), "one matched profile per frame");
     let mut config = config.clone();
-    if let Some(step) = extractor.table().finest_inverse_range_step() {
-        config.matching.min_inverse_range_sigma = (step * SUB_PIXEL_ROWS) as f32;
+    if let Some(sigma) = least_sigma {
+        config.matching.min_inverse_range_sigma = sigma;
     }
     // Each sweep's frames, commands and profiles, gathered once for every
     // round.
     let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
-    for (i, f) in ds.manifest.frames.iter().enumerate() {
-        let turn = matches!(f.motion, Some(Motion::Turn { .. }));
+    for (i, f) in frames.iter().enumerate() {
+        let turn = matches!(f.commanded(), Some(Motion::Turn { .. }));
         match groups.last_mut() {
-            Some((_, frames)) if turn => frames.push(i),
+            Some((_, members)) if turn => members.push(i),
             _ => groups.push((f.sweep, vec![i])),
         }
     }
     let inputs: Vec<(Vec<Option<f64>>, Vec<Rop>)> = groups
         .iter()
-        .map(|(_, frames)| {
+        .map(|(_, members)| {
             (
-                commanded_turns(ds, frames),
-                frames.iter().map(|&i| matched[i].clone()).collect(),
+                commanded_turns(|i| frames[i].commanded(), members),
+                members.iter().map(|&i| frames[i].matched.clone()).collect(),
             )
         })
         .collect();
@@ -375,9 +371,9 @@ pub fn sweeps(
         groups
             .par_iter()
             .zip(&inputs)
-            .map(|((id, frames), (commanded, sweep_rops))| DatasetSweep {
+            .map(|((id, members), (commanded, sweep_rops))| DatasetSweep {
                 id: *id,
-                frames: frames.clone(),
+                frames: members.clone(),
                 sweep: assemble(sweep_rops, commanded, config),
             })
             .collect()
@@ -397,17 +393,17 @@ pub fn sweeps(
     }
     // Assembly joined the matched profiles; where the map's differ, the
     // 360° profile is theirs.
-    if !std::ptr::eq(rops, matched) {
-        for s in &mut sweeps {
-            let own: Vec<Rop> = s.frames.iter().map(|&i| rops[i].clone()).collect();
+    for s in &mut sweeps {
+        if s.frames.iter().any(|&i| frames[i].rop != frames[i].matched) {
+            let own: Vec<Rop> = s.frames.iter().map(|&i| frames[i].rop.clone()).collect();
             s.sweep.rop = join(&own, &s.sweep.heading_rad);
         }
     }
     (sweeps, config)
 }
 
-/// How finely a boundary is found, in image rows: the least noise
-/// [`sweeps`] lets a match measure.
+/// How finely a boundary is found, in image rows: the least noise a match
+/// of camera profiles may measure, in rows of the camera's finest step.
 const SUB_PIXEL_ROWS: f64 = 0.1;
 
 /// The most rounds of [`sweeps`]' pivot estimate.
@@ -418,13 +414,14 @@ const PIVOT_ROUNDS: usize = 10;
 /// errors of a few millimetres are shared by neighbouring frames.
 const TURN_SHIFT_FLOOR_M: f64 = 0.002;
 
-/// The commanded turn before each of a sweep's frames, radians: `None` for
+/// The commanded turn before each of a sweep's frames (`members`, whose
+/// motions `motion` gives by frame index), radians: `None` for
 /// its first frame (which starts the sweep, whatever its motion).
-pub fn commanded_turns(ds: &Dataset, frames: &[usize]) -> Vec<Option<f64>> {
-    frames
+pub fn commanded_turns(motion: impl Fn(usize) -> Option<Motion>, members: &[usize]) -> Vec<Option<f64>> {
+    members
         .iter()
         .enumerate()
-        .map(|(k, &i)| match (k, ds.manifest.frames[i].motion) {
+        .map(|(k, &i)| match (k, motion(i)) {
             (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
             _ => None,
         })

@@ -2,8 +2,9 @@
 
 use crate::util::{pirouette, rendered, shared, shared_datasets};
 use pirouette::eval::{tally_sweeps, SweepScores};
+use pirouette::frame::camera_frames;
 use pirouette::io::Dataset;
-use pirouette::pipeline;
+use pirouette::pipeline::{self, PipelineConfig};
 use pirouette::profile::sweep::SweepConfig;
 use pirouette::profile::Rop;
 use pirouette::vision::VisionConfig;
@@ -11,21 +12,19 @@ use std::path::Path;
 
 fn scores(root: &Path) -> SweepScores {
     let ds = Dataset::open(root).unwrap();
-    let config = VisionConfig {
-        bin_width_rad: 0.25f64.to_radians(),
-        ..VisionConfig::default()
-    };
-    let p = pipeline::sweep_profiles(&ds, None, config, || {}).unwrap();
-    let (sweeps, used) = pipeline::sweeps(&ds, &p.extractor, &p.rops, &p.matched, &SweepConfig::default());
+    let swept = pipeline::sweep_dataset(&ds, &PipelineConfig::default(), &|_| {}).unwrap();
     // The least noise a match may measure is the camera's: a tenth of the
     // least change of inverse range between adjacent rows.
-    let step = p
+    let step = swept
         .extractor
         .table()
         .finest_inverse_range_step()
         .expect("floor in view");
-    assert_eq!(used.matching.min_inverse_range_sigma, (step * 0.1) as f32);
-    let tally = tally_sweeps(&ds, &sweeps).expect("true poses");
+    assert_eq!(
+        swept.sweep_config.matching.min_inverse_range_sigma,
+        (step * 0.1) as f32
+    );
+    let tally = tally_sweeps(&ds, &swept.sweeps).expect("true poses");
     tally.scores()
 }
 
@@ -138,8 +137,15 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
         p.rops.iter().zip(&p.compared).any(|(a, b)| !same(a, b)),
         "faint steps found nothing on this render"
     );
-    let (both, _) = pipeline::sweeps(&ds, &p.extractor, &p.rops, &p.matched, &SweepConfig::default());
-    let (alone, _) = pipeline::sweeps(&ds, &p.extractor, &p.matched, &p.matched, &SweepConfig::default());
+    let frames = camera_frames(&ds, p.rops.clone(), p.compared.clone(), p.matched.clone());
+    let matched_only: Vec<_> = (frames.iter().cloned())
+        .map(|mut f| {
+            f.rop = f.matched.clone();
+            f
+        })
+        .collect();
+    let (both, _) = pipeline::sweeps(&frames, None, &SweepConfig::default());
+    let (alone, _) = pipeline::sweeps(&matched_only, None, &SweepConfig::default());
     let mut joined_differ = false;
     for (b, a) in both.iter().zip(&alone) {
         assert_eq!(b.sweep.turns, a.sweep.turns);

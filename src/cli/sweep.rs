@@ -113,7 +113,7 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
     }
     let sweeps = a.options.run(&ds)?;
     for s in &sweeps {
-        let commanded = pipeline::commanded_turns(&ds, &s.frames);
+        let commanded = pipeline::commanded_turns(|i| ds.manifest.frames[i].motion, &s.frames);
         for (k, &i) in s.frames.iter().enumerate() {
             let f = &ds.manifest.frames[i];
             // To a microdegree: the command's own digits, not binary noise.

@@ -420,7 +420,8 @@ pub fn tally_sweeps(
     let mut tally = SweepTally::default();
     for s in sweeps {
         let theta: Vec<f64> = s.frames.iter().map(|&i| truth[i].theta).collect();
-        tally.add(&s.sweep, &theta, &crate::pipeline::commanded_turns(ds, &s.frames));
+        let commanded = crate::pipeline::commanded_turns(|i| ds.manifest.frames[i].motion, &s.frames);
+        tally.add(&s.sweep, &theta, &commanded);
     }
     Some(tally)
 }
