@@ -272,63 +272,17 @@ pub fn register(
     if points.len() < config.min_matched || field.obstacle_points() == 0 {
         return Ok(fallback(field.floor() as f64, 0, 0));
     }
-    let far = points.iter().map(|p| p.norm()).fold(res, f64::max);
-    let theta_step = (res / far).min(1f64.to_radians());
-    let window = |sigma: f64| (config.window_sigmas * sigma).min(config.max_window_m);
-    let cov = prior.covariance();
-    let half_x = window(cov[(0, 0)].sqrt());
-    let half_y = window(cov[(1, 1)].sqrt());
-    let half_t = (config.window_sigmas * prior.sigma_theta_rad).min(std::f64::consts::PI);
-    let nx = (half_x / res).ceil() as i64;
-    let ny = (half_y / res).ceil() as i64;
-    let nt = (half_t / theta_step).ceil() as i64;
-
-    let lattice = Lattice {
-        prior,
-        turned: prior.mean.theta.sin_cos(),
-        res,
-        theta_step,
-        nx,
-        ny,
-    };
-    // The endpoint cells of rotation `kt` at the prior's mean.
-    let cells_at = |kt: i64| -> Vec<(i64, i64)> {
-        let theta = prior.mean.theta + kt as f64 * theta_step;
-        let (s, c) = theta.sin_cos();
-        points
-            .iter()
-            .map(|p| {
-                let x = prior.mean.x + c * p.x - s * p.y;
-                let y = prior.mean.y + s * p.x + c * p.y;
-                ((x / res).floor() as i64, (y / res).floor() as i64)
-            })
-            .collect()
-    };
-    let (mut kept, evaluated) = match config.search {
+    // The lattice about the prior's mean, searched for every pose whose
+    // posterior weight counts.
+    let (lattice, nt) = Lattice::around(prior, &points, res, config);
+    let cells_at = |kt: i64| lattice.cells_at(&points, kt);
+    let (kept, evaluated) = match config.search {
         Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at),
         Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at),
     };
-    // In lattice order, rotation by rotation, row by row: the order of the
-    // exhaustive search's sums.
-    kept.sort_by_key(|&(kt, k)| (kt, k.b, k.a));
-    // The first of equal best scores.
-    let best = kept.iter().fold((f64::NEG_INFINITY, 0, 0, 0), |b, &(kt, k)| {
-        if k.score > b.0 {
-            (k.score, k.a, k.b, kt)
-        } else {
-            b
-        }
-    });
-    let posterior = kept.iter().map(|&(kt, k)| (k.score, lattice.pose(k.a, k.b, kt)));
-    let covariance = lattice_covariance(posterior, best.0, res, theta_step);
-    let rival = rival_peak(&kept, best, nx, ny).map(|(kt, k)| {
-        let x = lattice.pose(k.a, k.b, kt);
-        Rival {
-            pose: Pose2::new(x[0], x[1], x[2]),
-            below_best_ln: best.0 - k.score,
-        }
-    });
-
+    // Its best pose, spread and rival peak.
+    let (best, covariance, rival) = lattice.posterior(kept);
+    let theta_step = lattice.theta_step;
     let start = Pose2::new(
         prior.mean.x + best.1 as f64 * res,
         prior.mean.y + best.2 as f64 * res,
@@ -371,7 +325,70 @@ struct Lattice<'p> {
     ny: i64,
 }
 
-impl Lattice<'_> {
+impl<'p> Lattice<'p> {
+    /// The lattice of `prior`'s ± `window_sigmas` box for `points` (in the
+    /// robot's frame) on a field of `res` cells: rotations a step apart
+    /// that moves the farthest point by at most one cell (at most 1°),
+    /// translations one cell apart; and its rotation steps each way.
+    fn around(prior: &'p PosePrior, points: &[Point2], res: f64, config: &RegisterConfig) -> (Self, i64) {
+        let far = points.iter().map(|p| p.norm()).fold(res, f64::max);
+        let theta_step = (res / far).min(1f64.to_radians());
+        let window = |sigma: f64| (config.window_sigmas * sigma).min(config.max_window_m);
+        let cov = prior.covariance();
+        let half_x = window(cov[(0, 0)].sqrt());
+        let half_y = window(cov[(1, 1)].sqrt());
+        let half_t = (config.window_sigmas * prior.sigma_theta_rad).min(std::f64::consts::PI);
+        let lattice = Self {
+            prior,
+            turned: prior.mean.theta.sin_cos(),
+            res,
+            theta_step,
+            nx: (half_x / res).ceil() as i64,
+            ny: (half_y / res).ceil() as i64,
+        };
+        (lattice, (half_t / theta_step).ceil() as i64)
+    }
+
+    /// The cells of `points` at rotation `kt` about the prior's mean.
+    fn cells_at(&self, points: &[Point2], kt: i64) -> Vec<(i64, i64)> {
+        let (mean, res) = (self.prior.mean, self.res);
+        let theta = mean.theta + kt as f64 * self.theta_step;
+        let (s, c) = theta.sin_cos();
+        points
+            .iter()
+            .map(|p| {
+                let x = mean.x + c * p.x - s * p.y;
+                let y = mean.y + s * p.x + c * p.y;
+                ((x / res).floor() as i64, (y / res).floor() as i64)
+            })
+            .collect()
+    }
+
+    /// The posterior of the poses a search kept: its best (the first of
+    /// equal scores in lattice order), covariance and rival peak.
+    fn posterior(&self, mut kept: Vec<KeptPose>) -> (LatticeBest, Matrix3<f64>, Option<Rival>) {
+        // In lattice order, rotation by rotation, row by row: the order of
+        // the exhaustive search's sums.
+        kept.sort_by_key(|&(kt, k)| (kt, k.b, k.a));
+        let best = kept.iter().fold((f64::NEG_INFINITY, 0, 0, 0), |b, &(kt, k)| {
+            if k.score > b.0 {
+                (k.score, k.a, k.b, kt)
+            } else {
+                b
+            }
+        });
+        let posterior = kept.iter().map(|&(kt, k)| (k.score, self.pose(k.a, k.b, kt)));
+        let covariance = lattice_covariance(posterior, best.0, self.res, self.theta_step);
+        let rival = rival_peak(&kept, best, self.nx, self.ny).map(|(kt, k)| {
+            let x = self.pose(k.a, k.b, kt);
+            Rival {
+                pose: Pose2::new(x[0], x[1], x[2]),
+                below_best_ln: best.0 - k.score,
+            }
+        });
+        (best, covariance, rival)
+    }
+
     /// The lattice pose `(a, b, kt)` as world `(x, y, θ)`.
     fn pose(&self, a: i64, b: i64, kt: i64) -> Vector3<f64> {
         let mean = self.prior.mean;

@@ -151,60 +151,73 @@ impl LikelihoodField {
         // construction, answers faster.
         let coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
         let tree = (!coords.is_empty()).then(|| ImmutableKdTree::new_from_slice(&coords));
-        let two_sigma2 = 2.0 * sigma_m * sigma_m;
-        // The lattice covers the points (with the Gaussian's reach) and the
-        // grid's stored cells.
-        let mut extent: Option<((i64, i64), (i64, i64))> = None;
-        let mut grow = |lo: (i64, i64), hi: (i64, i64)| {
-            extent = Some(match extent {
-                None => (lo, hi),
-                Some((a, b)) => ((a.0.min(lo.0), a.1.min(lo.1)), (b.0.max(hi.0), b.1.max(hi.1))),
-            });
+        let mut field = Self {
+            tree,
+            coords,
+            epsilon,
+            epsilon_free,
+            two_sigma2: 2.0 * sigma_m * sigma_m,
+            resolution_m,
+            min_cell: (0, 0),
+            width: 0,
+            height: 0,
+            values: Vec::new(),
+            free: Vec::new(),
+            floor,
+            occupied: 0,
         };
-        for p in &points {
-            let (i, j) = cell(p);
-            grow((i - reach, j - reach), (i + reach, j + reach));
-        }
-        if let Some((grid, _)) = free_space {
-            let (i, j, w, h) = grid.extent();
-            if w > 0 && h > 0 {
-                grow((i, j), (i + w as i64 - 1, j + h as i64 - 1));
+        let Some((min_cell, max_cell)) = lattice_extent(&points, free_space, region, reach, &cell) else {
+            return field;
+        };
+        field.min_cell = min_cell;
+        field.width = (max_cell.0 - min_cell.0 + 1) as usize;
+        field.height = (max_cell.1 - min_cell.1 + 1) as usize;
+        let d2 = field.nearest_squared(&points, reach, &cell);
+        field.free = vec![false; field.width * field.height];
+        if let Some((grid, threshold)) = free_space {
+            let reaching = grid.log_odds_reaching(threshold);
+            let (width, free) = (field.width, &mut field.free);
+            for (k, f) in free.iter_mut().enumerate() {
+                let (i, j) = (min_cell.0 + (k % width) as i64, min_cell.1 + (k / width) as i64);
+                *f = grid.log_odds(i, j) < reaching;
             }
         }
-        let extent = match (extent, region) {
-            (Some((a, b)), Some((lo, hi))) => {
-                let (a, b) = ((a.0.max(lo.0), a.1.max(lo.1)), (b.0.min(hi.0), b.1.min(hi.1)));
-                (a.0 <= b.0 && a.1 <= b.1).then_some((a, b))
-            }
-            (e, _) => e,
-        };
-        let Some((min_cell, max_cell)) = extent else {
-            return Self {
-                tree,
-                coords,
-                epsilon,
-                epsilon_free,
-                two_sigma2,
-                resolution_m,
-                min_cell: (0, 0),
-                width: 0,
-                height: 0,
-                values: Vec::new(),
-                free: Vec::new(),
-                floor,
-                occupied: 0,
-            };
-        };
-        let width = (max_cell.0 - min_cell.0 + 1) as usize;
-        let height = (max_cell.1 - min_cell.1 + 1) as usize;
-        // Squared distance from each cell centre to the nearest point, exact
-        // within `reach` cells: every point stamps its neighbourhood (as far
-        // as the lattice goes).
+        // Most cells lie beyond every point's reach, where the value is
+        // the base's logarithm alone.
+        let (ln_eps, ln_eps_free) = (epsilon.ln() as f32, epsilon_free.ln() as f32);
+        let two_sigma2 = field.two_sigma2;
+        field.values = d2
+            .into_iter()
+            .zip(&field.free)
+            .map(|(d, &f)| match (d.is_infinite(), f) {
+                (true, true) => ln_eps_free,
+                (true, false) => ln_eps,
+                (false, _) => {
+                    let base = if f { epsilon_free } else { epsilon };
+                    (base + (1.0 - epsilon) * (-d / two_sigma2).exp()).ln() as f32
+                }
+            })
+            .collect();
+        field.occupied = points.len();
+        field
+    }
+
+    /// Squared distance from each cell centre of the lattice to the nearest
+    /// of `points`, exact within `reach` cells (infinite beyond): every
+    /// point stamps its neighbourhood (as far as the lattice goes).
+    fn nearest_squared(
+        &self,
+        points: &[Point2],
+        reach: i64,
+        cell: &impl Fn(&Point2) -> (i64, i64),
+    ) -> Vec<f64> {
+        let (min_cell, width, height, resolution_m) =
+            (self.min_cell, self.width, self.height, self.resolution_m);
         let mut d2 = vec![f64::INFINITY; width * height];
         // A point's squared offsets across the columns it reaches, shared by
         // all its rows.
         let mut dx2 = Vec::with_capacity(2 * reach as usize + 1);
-        for p in &points {
+        for p in points {
             let (i, j) = cell(p);
             let (ci, cj) = (i - min_cell.0, j - min_cell.1);
             let (i_lo, i_hi) = ((ci - reach).max(0), (ci + reach).min(width as i64 - 1));
@@ -226,44 +239,7 @@ impl LikelihoodField {
                 }
             }
         }
-        let mut free = vec![false; width * height];
-        if let Some((grid, threshold)) = free_space {
-            let reaching = grid.log_odds_reaching(threshold);
-            for (k, f) in free.iter_mut().enumerate() {
-                let (i, j) = (min_cell.0 + (k % width) as i64, min_cell.1 + (k / width) as i64);
-                *f = grid.log_odds(i, j) < reaching;
-            }
-        }
-        // Most cells lie beyond every point's reach, where the value is
-        // the base's logarithm alone.
-        let (ln_eps, ln_eps_free) = (epsilon.ln() as f32, epsilon_free.ln() as f32);
-        let values = d2
-            .into_iter()
-            .zip(&free)
-            .map(|(d, &f)| match (d.is_infinite(), f) {
-                (true, true) => ln_eps_free,
-                (true, false) => ln_eps,
-                (false, _) => {
-                    let base = if f { epsilon_free } else { epsilon };
-                    (base + (1.0 - epsilon) * (-d / two_sigma2).exp()).ln() as f32
-                }
-            })
-            .collect();
-        Self {
-            tree,
-            coords,
-            epsilon,
-            epsilon_free,
-            two_sigma2,
-            resolution_m,
-            min_cell,
-            width,
-            height,
-            values,
-            free,
-            floor,
-            occupied: points.len(),
-        }
+        d2
     }
 
     /// Cell side, metres.
@@ -375,6 +351,42 @@ impl LikelihoodField {
     /// The stored block: `(min_cell, width, height, values)`, row-major.
     pub(crate) fn raw(&self) -> ((i64, i64), usize, usize, &[f32]) {
         (self.min_cell, self.width, self.height, &self.values)
+    }
+}
+
+/// The cells a field's lattice covers: the points with the Gaussian's
+/// `reach` about each, and the free-space grid's stored cells, cut to
+/// `region` where one is given; `None` where nothing is left.
+fn lattice_extent(
+    points: &[Point2],
+    free_space: Option<(&OccupancyGrid, f64)>,
+    region: Option<((i64, i64), (i64, i64))>,
+    reach: i64,
+    cell: &impl Fn(&Point2) -> (i64, i64),
+) -> Option<((i64, i64), (i64, i64))> {
+    let mut extent: Option<((i64, i64), (i64, i64))> = None;
+    let mut grow = |lo: (i64, i64), hi: (i64, i64)| {
+        extent = Some(match extent {
+            None => (lo, hi),
+            Some((a, b)) => ((a.0.min(lo.0), a.1.min(lo.1)), (b.0.max(hi.0), b.1.max(hi.1))),
+        });
+    };
+    for p in points {
+        let (i, j) = cell(p);
+        grow((i - reach, j - reach), (i + reach, j + reach));
+    }
+    if let Some((grid, _)) = free_space {
+        let (i, j, w, h) = grid.extent();
+        if w > 0 && h > 0 {
+            grow((i, j), (i + w as i64 - 1, j + h as i64 - 1));
+        }
+    }
+    match (extent, region) {
+        (Some((a, b)), Some((lo, hi))) => {
+            let (a, b) = ((a.0.max(lo.0), a.1.max(lo.1)), (b.0.min(hi.0), b.1.min(hi.1)));
+            (a.0 <= b.0 && a.1 <= b.1).then_some((a, b))
+        }
+        (e, _) => e,
     }
 }
 
