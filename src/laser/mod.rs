@@ -10,7 +10,7 @@
 //! revisits), never the log's lines: a log that goes round the same
 //! building for hours needs little more than one that goes round once.
 
-use crate::frame::{laser_frame, Step};
+use crate::frame::laser_frame;
 use crate::geom::{Point2, Pose2};
 use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use crate::grid::{GridConfig, OccupancyGrid};
@@ -363,6 +363,80 @@ const EDGE_FLOOR_M: f64 = 0.01;
 const EDGE_FLOOR_RAD: f64 = 0.004;
 
 impl<'c> Mapper<'c> {
+    /// Nothing registered yet.
+    fn new(config: &'c LaserConfig) -> Result<Self> {
+        Ok(Self {
+            config,
+            recent: VecDeque::new(),
+            first: 0,
+            poses: Vec::new(),
+            along_m: Vec::new(),
+            edges: Vec::new(),
+            keyframes: Keyframes::new()?,
+            loops: Vec::new(),
+            lost: false,
+            closed_at_m: 0.0,
+        })
+    }
+
+    /// Files scan `k`'s thinned endpoints (those it sees and those beyond
+    /// the map's limit within reach) and places it after the previous
+    /// scan: whether its registration was trusted.
+    fn take(&mut self, k: usize, scan: &LaserScan, label: &dyn Fn() -> String) -> Result<bool> {
+        let config = self.config;
+        let frame = laser_frame(scan, config.max_range_m);
+        let mut points = endpoints(&frame.compared);
+        points.extend(far_points(&frame.compared, config.reach_m));
+        let spacing = config.register.spacing_m.max(config.field_resolution_m);
+        self.remember(k, thin_points(&points, spacing));
+        if k == 0 {
+            self.poses.push(Pose2::IDENTITY);
+            self.along_m.push(0.0);
+            return Ok(true);
+        }
+        let registered = self.place(k, scan.odometry.as_ref(), label)?;
+        self.lost |= !registered;
+        Ok(registered)
+    }
+
+    /// After scan `k` is placed: a keyframe filed where one is wanted,
+    /// and every [`LoopConfig::every_scans`] a search for revisits, the
+    /// graph solved where one was found.
+    fn revisit(&mut self, k: usize) -> Result<()> {
+        let every = self.config.loops.every_scans;
+        if every > 0 {
+            self.file_keyframe(k)?;
+            if k > 0 && k % every == 0 && self.close_loops(k)? {
+                self.optimise();
+            }
+        }
+        Ok(())
+    }
+
+    /// The registered log: `meta` with the final poses, the loops, and
+    /// the graph without the loop edges it dropped.
+    fn finish(self, mut meta: Vec<ScanPose>) -> RegisteredLog {
+        for (s, p) in meta.iter_mut().zip(&self.poses) {
+            s.pose = *p;
+        }
+        let dropped: Vec<usize> = (self.loops.iter())
+            .filter(|(l, _)| !l.kept)
+            .map(|&(_, e)| e)
+            .collect();
+        let mut graph = PoseGraph::new(self.poses);
+        graph.edges = (self.edges.into_iter().enumerate())
+            .filter(|(e, _)| !dropped.contains(e))
+            .map(|(_, edge)| edge)
+            .collect();
+        RegisteredLog {
+            scans: meta,
+            loops: self.loops.into_iter().map(|(l, _)| l).collect(),
+            loop_searches: self.keyframes.searches,
+            keyframes: self.keyframes.len(),
+            graph,
+        }
+    }
+
     /// The endpoints of scan `k`, in its frame (a recent scan).
     fn points(&self, k: usize) -> &[Point2] {
         &self.recent[k - self.first]
@@ -568,68 +642,31 @@ impl<'c> Mapper<'c> {
 /// in log order. `progress` is called once per scan.
 pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> Result<RegisteredLog> {
     check_config(config)?;
-    let mut m = Mapper {
-        config,
-        recent: VecDeque::new(),
-        first: 0,
-        poses: Vec::new(),
-        along_m: Vec::new(),
-        edges: Vec::new(),
-        keyframes: Keyframes::new()?,
-        loops: Vec::new(),
-        lost: false,
-        closed_at_m: 0.0,
-    };
+    let mut m = Mapper::new(config)?;
     let mut meta: Vec<ScanPose> = Vec::new();
     // The log's frame to the map frame: the first scan's recorded pose.
-    let mut origin = Pose2::IDENTITY;
+    let mut origin = None;
     for scan in CarmenReader::open(path)? {
         let scan = scan?;
         let k = meta.len();
-        let frame = laser_frame(&scan, config.max_range_m);
-        let mut points = endpoints(&frame.compared);
-        points.extend(far_points(&frame.compared, config.reach_m));
-        let odometry = match frame.motion {
-            Some(Step::Odometry(step)) => Some(step),
-            _ => None,
-        };
-        m.remember(
-            k,
-            thin_points(&points, config.register.spacing_m.max(config.field_resolution_m)),
-        );
-        let (dead_reckoning, registered) = match meta.last() {
-            None => {
-                origin = scan.recorded;
-                m.poses.push(Pose2::IDENTITY);
-                m.along_m.push(0.0);
-                (Pose2::IDENTITY, true)
-            }
-            Some(previous) => {
-                let label = || format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line);
-                let registered = m.place(k, scan.odometry.as_ref(), &label)?;
-                m.lost |= !registered;
-                (
-                    previous.dead_reckoning * scan.odometry.unwrap_or_default(),
-                    registered,
-                )
-            }
-        };
+        let label = || format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line);
+        // Registered against the local map, the odometry its prior.
+        let registered = m.take(k, &scan, &label)?;
+        let origin = *origin.get_or_insert(scan.recorded);
+        let dead_reckoning = meta.last().map_or(Pose2::IDENTITY, |previous| {
+            previous.dead_reckoning * scan.odometry.unwrap_or_default()
+        });
         meta.push(ScanPose {
             scan: scan.scan,
             t: scan.t,
             pose: Pose2::IDENTITY,
             recorded: origin.between(&scan.recorded),
             dead_reckoning,
-            odometry: odometry.is_some(),
+            odometry: scan.odometry.is_some(),
             registered,
         });
-        let every = config.loops.every_scans;
-        if every > 0 {
-            m.file_keyframe(k)?;
-            if k > 0 && k % every == 0 && m.close_loops(k)? {
-                m.optimise();
-            }
-        }
+        // Places kept, revisits searched, the graph solved.
+        m.revisit(k)?;
         progress();
     }
     if meta.is_empty() {
@@ -638,25 +675,7 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
             path.display()
         );
     }
-    for (s, p) in meta.iter_mut().zip(&m.poses) {
-        s.pose = *p;
-    }
-    let dropped: Vec<usize> = m.loops.iter().filter(|(l, _)| !l.kept).map(|&(_, e)| e).collect();
-    let mut graph = PoseGraph::new(m.poses);
-    graph.edges = m
-        .edges
-        .into_iter()
-        .enumerate()
-        .filter(|(e, _)| !dropped.contains(e))
-        .map(|(_, edge)| edge)
-        .collect();
-    Ok(RegisteredLog {
-        scans: meta,
-        loops: m.loops.into_iter().map(|(l, _)| l).collect(),
-        loop_searches: m.keyframes.searches,
-        keyframes: m.keyframes.len(),
-        graph,
-    })
+    Ok(m.finish(meta))
 }
 
 /// The grid of a log's scans at the given poses (one per scan, in log
