@@ -13,14 +13,15 @@ use pirouette_profile::Rop;
 use pirouette_register::{
     endpoints, far_points, register, LikelihoodField, MotionNoise, PosePrior, RegisterConfig, Registration,
 };
-use rayon::prelude::*;
 
+mod adjust;
 mod chain;
 mod fields;
 pub(crate) mod graph;
 pub mod revisits;
 
 use crate::localise::LocaliseConfig;
+use adjust::adjust_jointly;
 use chain::chain_headings;
 use fields::{field_in, field_of, frame_fields, seen_by};
 
@@ -408,6 +409,45 @@ pub fn build_map(
     if let Some(&i) = sweeps.iter().flat_map(|s| &s.frames).find(|&&i| i >= input.len()) {
         bail!("a sweep names frame {i} of {}", input.len());
     }
+    // Each sweep in turn against the map of those before it.
+    let mut placed = place_in_turn(input, sweeps, blind_m, config, &progress)?;
+    // Each sweep against the map of all the others.
+    for _pass in 0..REFINE_PASSES {
+        refine_pass(&mut placed, sweeps, input, blind_m, config)?;
+        progress();
+    }
+    // The sweeps moved together to agree with every pair's match, then
+    // each placed once more against that map.
+    let revisits = if sweeps.len() > 1 {
+        adjust_jointly(&mut placed, input, sweeps, blind_m, config)?
+    } else {
+        Vec::new()
+    };
+    progress();
+    // The first frame's heading was refined with the rest; the map frame
+    // is where it ended up.
+    to_first_frame(&mut placed);
+    // Every frame's profile fused at its pose.
+    let (grid, frame_poses, out) = fuse(input, sweeps, &placed, blind_m, config)?;
+    Ok(MapRun {
+        grid,
+        frame_poses,
+        sweeps: out,
+        revisits,
+    })
+}
+
+/// Each sweep placed in turn: the first at the origin, each later one
+/// from the pose its forward move predicts from the previous sweep's last
+/// frame, registered against the map of those before it. `progress` is
+/// called once per sweep.
+fn place_in_turn(
+    input: &[Frame],
+    sweeps: &[DatasetSweep],
+    blind_m: f64,
+    config: &MapConfig,
+    progress: &impl Fn(),
+) -> Result<Vec<Placed>> {
     let mut placed: Vec<Placed> = Vec::with_capacity(sweeps.len());
     let mut inserted: Vec<(usize, Pose2)> = Vec::new();
     for (s, sweep) in sweeps.iter().enumerate() {
@@ -428,36 +468,16 @@ pub fn build_map(
         placed.push(state);
         progress();
     }
+    Ok(placed)
+}
 
-    // Each sweep against the map of all the others.
-    for _pass in 0..REFINE_PASSES {
-        refine_pass(&mut placed, sweeps, input, blind_m, config)?;
-        progress();
-    }
-    // The sweeps moved together to agree with every pair's match, then
-    // each placed once more against that map.
-    let mut revisits = Vec::new();
-    if sweeps.len() > 1 {
-        if let Some(c) = &config.revisits {
-            revisits = revisits::recognise(sweeps, &placed, c)?;
-        }
-        let (mut edges, revisit_edges) = sweep_edges(&placed, sweeps, input, blind_m, config, &mut revisits)?;
-        edges.extend(motion_edges(&placed, sweeps, input, config));
-        let kept = adjust_sweeps(&mut placed, edges);
-        for (r, e) in revisits.iter_mut().zip(revisit_edges) {
-            r.registered = e.is_some();
-            r.kept = e.is_some_and(|e| kept[e]);
-        }
-        refine_pass(&mut placed, sweeps, input, blind_m, config)?;
-    }
-    progress();
-
-    // The first frame's heading was refined with the rest; the map frame
-    // is where it ended up.
+/// Moves every sweep (pose, prior, registration and their covariances)
+/// into the frame of the first sweep's first frame.
+fn to_first_frame(placed: &mut [Placed]) {
     let origin = placed[0].frame_pose(0).inverse();
     let (sin, cos) = origin.theta.sin_cos();
     let rotate = Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
-    for p in &mut placed {
+    for p in placed {
         p.pose = origin * p.pose;
         p.covariance = rotate * p.covariance * rotate.transpose();
         if let Some(prior) = p.prior.as_mut() {
@@ -471,11 +491,21 @@ pub fn build_map(
             reg.covariance = rotate * reg.covariance * rotate.transpose();
         }
     }
+}
 
+/// The grid of every frame's profile at its pose, the frames' poses (the
+/// first exactly the origin), and each sweep's pose as placed.
+fn fuse(
+    input: &[Frame],
+    sweeps: &[DatasetSweep],
+    placed: &[Placed],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Result<(OccupancyGrid, Vec<Pose2>, Vec<SweepPose>)> {
     let mut grid = OccupancyGrid::new(config.grid.clone())?;
     let mut frame_poses = vec![Pose2::IDENTITY; input.len()];
     let mut out = Vec::with_capacity(sweeps.len());
-    for (s, (sweep, p)) in sweeps.iter().zip(&placed).enumerate() {
+    for (s, (sweep, p)) in sweeps.iter().zip(placed).enumerate() {
         for (k, &i) in sweep.frames.iter().enumerate() {
             // The first frame is the origin exactly, not to rounding.
             frame_poses[i] = if s == 0 && k == 0 {
@@ -499,157 +529,7 @@ pub fn build_map(
             covariance: p.covariance,
         });
     }
-    Ok(MapRun {
-        grid,
-        frame_poses,
-        sweeps: out,
-        revisits,
-    })
-}
-
-/// How far apart two sweeps are matched in the adjustment, at most
-/// (metres, one standard deviation each way; their heading as far as one
-/// commanded turn errs): the sweeps were already placed against each
-/// other's maps, so the match looks near where they are.
-const PAIR_SHIFT_M: f64 = 0.05;
-
-/// The measured relative poses between every two sweeps within reach of
-/// each other: each sweep (its frames as the heading chain placed them)
-/// registered against what each other sweep alone saw, both ways. A
-/// match's covariance includes its search prior, broad beside what the
-/// match itself pins down.
-fn sweep_edges(
-    placed: &[Placed],
-    sweeps: &[DatasetSweep],
-    input: &[Frame],
-    blind_m: f64,
-    config: &MapConfig,
-    revisits: &mut [revisits::Revisit],
-) -> Result<(Vec<graph::Edge>, Vec<Option<usize>>)> {
-    let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
-    let own: Vec<(LikelihoodField, Vec<Point2>)> = (0..sweeps.len())
-        .into_par_iter()
-        .map(|s| -> Result<_> {
-            let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
-                .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
-                .collect();
-            let seen = seen_by(&frames, input, blind_m, config)?;
-            Ok((
-                field_in(&seen, None, config),
-                placed[s].points(&sweeps[s], &all(s), input, config),
-            ))
-        })
-        .collect::<Result<_>>()?;
-    // Sweeps farther apart than twice the registration's reach see nothing
-    // in common.
-    let reach = |s: usize| {
-        let rop = &input[sweeps[s].frames[0]].compared;
-        far_reach_m(rop, config).max(rop.max_range_m as f64)
-    };
-    let near = |i: usize, j: usize| {
-        let (a, b) = (placed[i].pose, placed[j].pose);
-        (a.x - b.x).hypot(a.y - b.y) <= reach(i) + reach(j)
-    };
-    // Every near pair from where the two were placed; a recognised revisit
-    // out of reach from where the place index put it.
-    let mut pairs: Vec<(usize, usize, Option<Pose2>)> = (0..sweeps.len())
-        .flat_map(|i| {
-            (0..sweeps.len())
-                .filter(move |&j| j != i)
-                .map(move |j| (i, j, None))
-        })
-        .filter(|&(i, j, _)| near(i, j))
-        .collect();
-    for r in revisits.iter_mut() {
-        r.beyond_reach = !near(r.earlier, r.later);
-        if r.beyond_reach {
-            pairs.push((r.earlier, r.later, Some(r.relative)));
-        }
-    }
-    let edges = pairs
-        .par_iter()
-        .map(|&(i, j, recognised)| -> Result<Option<graph::Edge>> {
-            let (mean, shift) = match recognised {
-                Some(z) => (z, REVISIT_SHIFT_M),
-                None => (placed[i].pose.between(&placed[j].pose), PAIR_SHIFT_M),
-            };
-            let prior = PosePrior {
-                mean,
-                sigma_forward_m: shift,
-                sigma_left_m: shift,
-                sigma_theta_rad: config.sweep.commanded_sigma_rad,
-            };
-            let reg = register(&own[i].0, &own[j].1, &prior, &config.register)?;
-            Ok(reg.accepted.then(|| graph::Edge {
-                i,
-                j,
-                z: reg.pose,
-                info: reg.covariance.try_inverse().unwrap_or_else(Matrix3::zeros),
-            }))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    // Where each revisit's pair ended up among the edges kept.
-    let mut at = Vec::with_capacity(edges.len());
-    let mut kept_edges = Vec::new();
-    for e in edges {
-        at.push(e.map(|_| kept_edges.len()));
-        kept_edges.extend(e);
-    }
-    let revisit_edges = revisits
-        .iter()
-        .map(|r| {
-            let (i, j) = (r.earlier, r.later);
-            let k = pairs
-                .iter()
-                .position(|&(a, b, z)| a == i && b == j && z.is_some() == r.beyond_reach)?;
-            at[k]
-        })
-        .collect();
-    Ok((kept_edges, revisit_edges))
-}
-
-/// How far from where the place index puts a revisit its pair is
-/// matched, one standard deviation (metres): the index's registration is
-/// good to a few centimetres.
-const REVISIT_SHIFT_M: f64 = 0.15;
-
-/// The forward moves between consecutive sweeps as edges: where the
-/// previous sweep's last frame and the move put the next sweep's first
-/// frame.
-fn motion_edges(
-    placed: &[Placed],
-    sweeps: &[DatasetSweep],
-    input: &[Frame],
-    config: &MapConfig,
-) -> Vec<graph::Edge> {
-    (1..sweeps.len())
-        .map(|s| {
-            let prev = &placed[s - 1];
-            let (last, fallback_var) = last_frame(&sweeps[s - 1], prev, config);
-            let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
-            let distance = forward_distance(input[sweeps[s].frames[0]].commanded());
-            let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
-            graph::Edge {
-                i: s - 1,
-                j: s,
-                z: prior.mean * placed[s].rel(0).inverse(),
-                info: prior.covariance().try_inverse().unwrap_or_else(Matrix3::zeros),
-            }
-        })
-        .collect()
-}
-
-/// Moves the sweeps (each a rigid whole) to agree best with every measured
-/// relative pose at once (`graph::adjust`). Placing sweeps one at a time
-/// against the map of the others cannot turn a group of sweeps that agree
-/// with each other together; a joint solve can.
-fn adjust_sweeps(placed: &mut [Placed], edges: Vec<graph::Edge>) -> Vec<bool> {
-    let mut poses: Vec<Pose2> = placed.iter().map(|p| p.pose).collect();
-    let kept = graph::adjust(&mut poses, edges);
-    for (p, pose) in placed.iter_mut().zip(poses) {
-        p.pose = pose;
-    }
-    kept
+    Ok((grid, frame_poses, out))
 }
 
 /// The belief in a sweep's first frame after the forward move from the
