@@ -3,8 +3,9 @@
 use super::sweep::SweepOptions;
 use anyhow::{bail, Result};
 use pirouette::geom::wrap_angle;
-use pirouette::io::Motion;
+use pirouette::io::{Dataset, Motion};
 use pirouette::localise::{file_sweeps, localise_signature, LocaliseConfig};
+use pirouette::pipeline::Swept;
 use pirouette::places::{PlaceIndex, SignatureConfig};
 use pirouette::profile::matching::fft::FftCorrelation;
 use pirouette::profile::matching::match_turn;
@@ -72,8 +73,41 @@ fn measure(kind: &'static str, items: usize, repeat: u32, mut f: impl FnMut(usiz
 pub fn bench(a: BenchArgs) -> Result<()> {
     let ds = super::open_dataset(&a.dataset)?;
     let swept = super::places::sweep_with_bar(&ds, &a.sweep)?;
+    let mut timings = Vec::new();
+    let mut notes = Vec::new();
+    // Every verified turn's two matchers, and their errors against truth.
+    let turns = time_turns(&ds, &swept, a.repeat, &mut timings, &mut notes);
+    // The dataset's sweeps filed as places, then each looked up.
+    let places = time_places(&ds, &swept, a.repeat, &mut timings, &mut notes)?;
+    if timings.is_empty() {
+        bail!(
+            "{}: nothing to time: {}",
+            ds.manifest_path().display(),
+            notes.join("; ")
+        );
+    }
+    if a.json {
+        return print_json(&timings, &notes);
+    }
+    outln!(
+        "{}: {turns} turns, {places} places; {} timed passes after one warm-up, single thread",
+        ds.manifest.name,
+        a.repeat
+    )?;
+    print_table(&timings, &notes)
+}
+
+/// Times both turn matchers on every commanded turn between two frames of
+/// a sweep, and notes their median errors against the true turns where
+/// the dataset has true poses: the number of turns.
+fn time_turns(
+    ds: &Dataset,
+    swept: &Swept,
+    repeat: u32,
+    timings: &mut Vec<Timing>,
+    notes: &mut Vec<String>,
+) -> usize {
     let matching = &swept.sweep_config.matching;
-    // Every commanded turn between two frames of a sweep.
     let pairs: Vec<(usize, usize, f64)> = swept
         .sweeps
         .iter()
@@ -83,54 +117,62 @@ pub fn bench(a: BenchArgs) -> Result<()> {
             _ => None,
         })
         .collect();
-    let mut timings = Vec::new();
-    let mut notes = Vec::new();
     if pairs.is_empty() {
         notes.push("no turns to match: turn timings left out".to_string());
-    } else {
-        let matched = |i: usize| &swept.frames[i].matched;
-        timings.push(measure("turn: direct search", pairs.len(), a.repeat, |k| {
-            let (b, c, cmd) = pairs[k];
-            black_box(match_turn(matched(b), matched(c), cmd, matching));
-        }));
-        let mut fft = FftCorrelation::new();
-        let (window, overlap) = (matching.window_rad, matching.min_overlap_rad);
-        timings.push(measure("turn: FFT correlation", pairs.len(), a.repeat, |k| {
-            let (b, c, cmd) = pairs[k];
-            black_box(fft.match_turn(matched(b), matched(c), cmd, window, overlap));
-        }));
-        // Each matcher's error against the true turn, where the dataset
-        // has true poses.
-        let truth = |i: usize| ds.manifest.frames[i].truth.map(|p| p.theta_deg.to_radians());
-        let mut errors: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
-        for &(b, c, cmd) in &pairs {
-            let (Some(tb), Some(tc)) = (truth(b), truth(c)) else {
-                continue;
-            };
-            let turn = tc - tb;
-            let direct = match_turn(matched(b), matched(c), cmd, matching).turn_rad;
-            let f = fft
-                .match_turn(matched(b), matched(c), cmd, window, overlap)
-                .unwrap_or(cmd);
-            for (e, t) in errors.iter_mut().zip([direct, f]) {
-                e.push(wrap_angle(t - turn).abs().to_degrees());
-            }
-        }
-        if !errors[0].is_empty() {
-            let median = |v: &mut Vec<f64>| {
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            };
-            let (d, f) = (median(&mut errors[0]), median(&mut errors[1]));
-            notes.push(format!(
-                "median error against the true turns: direct search {d:.2}°, FFT correlation {f:.2}° ({} turns)",
-                errors[0].len()
-            ));
+        return 0;
+    }
+    let matched = |i: usize| &swept.frames[i].matched;
+    timings.push(measure("turn: direct search", pairs.len(), repeat, |k| {
+        let (b, c, cmd) = pairs[k];
+        black_box(match_turn(matched(b), matched(c), cmd, matching));
+    }));
+    let mut fft = FftCorrelation::new();
+    let (window, overlap) = (matching.window_rad, matching.min_overlap_rad);
+    timings.push(measure("turn: FFT correlation", pairs.len(), repeat, |k| {
+        let (b, c, cmd) = pairs[k];
+        black_box(fft.match_turn(matched(b), matched(c), cmd, window, overlap));
+    }));
+    // Each matcher's error against the true turn.
+    let truth = |i: usize| ds.manifest.frames[i].truth.map(|p| p.theta_deg.to_radians());
+    let mut errors: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    for &(b, c, cmd) in &pairs {
+        let (Some(tb), Some(tc)) = (truth(b), truth(c)) else {
+            continue;
+        };
+        let turn = tc - tb;
+        let direct = match_turn(matched(b), matched(c), cmd, matching).turn_rad;
+        let f = fft
+            .match_turn(matched(b), matched(c), cmd, window, overlap)
+            .unwrap_or(cmd);
+        for (e, t) in errors.iter_mut().zip([direct, f]) {
+            e.push(wrap_angle(t - turn).abs().to_degrees());
         }
     }
-    // The dataset's sweeps filed as places, then each looked up.
+    if !errors[0].is_empty() {
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let (d, f) = (median(&mut errors[0]), median(&mut errors[1]));
+        notes.push(format!(
+            "median error against the true turns: direct search {d:.2}°, FFT correlation {f:.2}° ({} turns)",
+            errors[0].len()
+        ));
+    }
+    pairs.len()
+}
+
+/// Files the dataset's sweeps as places and times looking each up (the
+/// index's query, and the whole localisation): the number of places.
+fn time_places(
+    ds: &Dataset,
+    swept: &Swept,
+    repeat: u32,
+    timings: &mut Vec<Timing>,
+    notes: &mut Vec<String>,
+) -> Result<usize> {
     let mut index = PlaceIndex::new(SignatureConfig::default())?;
-    file_sweeps(&mut index, &ds, &swept)?;
+    file_sweeps(&mut index, ds, swept)?;
     let queries: Vec<_> = swept
         .sweeps
         .iter()
@@ -141,49 +183,46 @@ pub fn bench(a: BenchArgs) -> Result<()> {
         .collect();
     if queries.is_empty() {
         notes.push("no sweep saw enough of the circle: place timings left out".to_string());
-    } else {
-        let config = LocaliseConfig::default();
-        timings.push(measure("place: index query", queries.len(), a.repeat, |k| {
-            black_box(index.query(&queries[k].0, &config.query));
-        }));
-        timings.push(measure("place: localise", queries.len(), a.repeat, |k| {
-            black_box(localise_signature(&index, &queries[k].0, queries[k].1, &config));
-        }));
+        return Ok(0);
     }
-    if timings.is_empty() {
-        bail!(
-            "{}: nothing to time: {}",
-            ds.manifest_path().display(),
-            notes.join("; ")
-        );
+    let config = LocaliseConfig::default();
+    timings.push(measure("place: index query", queries.len(), repeat, |k| {
+        black_box(index.query(&queries[k].0, &config.query));
+    }));
+    timings.push(measure("place: localise", queries.len(), repeat, |k| {
+        black_box(localise_signature(&index, &queries[k].0, queries[k].1, &config));
+    }));
+    Ok(queries.len())
+}
+
+/// Microseconds.
+fn us(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e6
+}
+
+/// The timings as JSON Lines on stdout, the notes on stderr.
+fn print_json(timings: &[Timing], notes: &[String]) -> Result<()> {
+    for t in timings {
+        outln!(
+            "{}",
+            json!({
+                "kind": t.kind,
+                "calls": t.calls,
+                "p50_us": us(t.p50),
+                "p95_us": us(t.p95),
+                "p99_us": us(t.p99),
+                "per_s": t.per_s,
+            })
+        )?;
     }
-    let us = |d: Duration| d.as_secs_f64() * 1e6;
-    if a.json {
-        for t in &timings {
-            outln!(
-                "{}",
-                json!({
-                    "kind": t.kind,
-                    "calls": t.calls,
-                    "p50_us": us(t.p50),
-                    "p95_us": us(t.p95),
-                    "p99_us": us(t.p99),
-                    "per_s": t.per_s,
-                })
-            )?;
-        }
-        for n in &notes {
-            eprintln!("{n}");
-        }
-        return Ok(());
+    for n in notes {
+        eprintln!("{n}");
     }
-    outln!(
-        "{}: {} turns, {} places; {} timed passes after one warm-up, single thread",
-        ds.manifest.name,
-        pairs.len(),
-        queries.len(),
-        a.repeat
-    )?;
+    Ok(())
+}
+
+/// The timings as a table, then the notes.
+fn print_table(timings: &[Timing], notes: &[String]) -> Result<()> {
     outln!(
         "{:<24} {:>8} {:>10} {:>10} {:>10} {:>10}",
         "kind",
@@ -193,7 +232,7 @@ pub fn bench(a: BenchArgs) -> Result<()> {
         "p99 µs",
         "per s"
     )?;
-    for t in &timings {
+    for t in timings {
         outln!(
             "{:<24} {:>8} {:>10.1} {:>10.1} {:>10.1} {:>10.0}",
             t.kind,
@@ -204,7 +243,7 @@ pub fn bench(a: BenchArgs) -> Result<()> {
             t.per_s
         )?;
     }
-    for n in &notes {
+    for n in notes {
         outln!("{n}")?;
     }
     Ok(())
