@@ -155,41 +155,14 @@ pub fn evaluate_map_dir(
             ds.world_path().display()
         )
     })?;
-    let poses_path = dir.join(map_names::POSES_JSON);
-    let records = read_poses(&poses_path)?;
+    let estimated = estimated_poses(ds, dir)?;
     let ros = read_ros_map(&dir.join(map_names::YAML))?;
-    let by_image: std::collections::HashMap<&str, Pose2> = records
-        .iter()
-        .filter_map(|r| r.image.as_deref().map(|i| (i, r.pose())))
-        .collect();
-    let estimated: Vec<Pose2> = ds
-        .manifest
-        .frames
-        .iter()
-        .map(|f| {
-            by_image
-                .get(f.image.as_str())
-                .copied()
-                .with_context(|| format!("{}: no pose for frame {}", poses_path.display(), f.image))
-        })
-        .collect::<Result<_>>()?;
     let trajectory = trajectory_scores(&estimated, &truth);
     let commanded = trajectory_scores(
         &crate::mapping::dead_reckoning(&crate::frame::camera_motions(ds)),
         &truth,
     );
-    let mut sweeps = Vec::new();
-    let mut seen = HashSet::new();
-    for (i, f) in ds.manifest.frames.iter().enumerate() {
-        if seen.insert(f.sweep) {
-            let e = truth[i].between(&estimated[i]);
-            sweeps.push(SweepError {
-                sweep: f.sweep,
-                position_error_m: e.translation().norm(),
-                heading_error_deg: e.theta.to_degrees(),
-            });
-        }
-    }
+    let sweeps = sweep_errors(ds, &estimated, &truth);
     // Occupied cells into the world through the true first pose.
     let tolerance_m = tolerance_cells * ros.resolution_m;
     let visible = visible_outline(
@@ -253,6 +226,45 @@ pub fn evaluate_map_dir(
             ),
         },
     })
+}
+
+/// The pose of every frame of `ds` that the map folder `dir` holds, in
+/// manifest order.
+fn estimated_poses(ds: &Dataset, dir: &Path) -> Result<Vec<Pose2>> {
+    let poses_path = dir.join(map_names::POSES_JSON);
+    let records = read_poses(&poses_path)?;
+    let by_image: std::collections::HashMap<&str, Pose2> = records
+        .iter()
+        .filter_map(|r| r.image.as_deref().map(|i| (i, r.pose())))
+        .collect();
+    ds.manifest
+        .frames
+        .iter()
+        .map(|f| {
+            by_image
+                .get(f.image.as_str())
+                .copied()
+                .with_context(|| format!("{}: no pose for frame {}", poses_path.display(), f.image))
+        })
+        .collect()
+}
+
+/// Each sweep's error: its first frame's estimated pose against the true
+/// one.
+fn sweep_errors(ds: &Dataset, estimated: &[Pose2], truth: &[Pose2]) -> Vec<SweepError> {
+    let mut sweeps = Vec::new();
+    let mut seen = HashSet::new();
+    for (i, f) in ds.manifest.frames.iter().enumerate() {
+        if seen.insert(f.sweep) {
+            let e = truth[i].between(&estimated[i]);
+            sweeps.push(SweepError {
+                sweep: f.sweep,
+                position_error_m: e.translation().norm(),
+                heading_error_deg: e.theta.to_degrees(),
+            });
+        }
+    }
+    sweeps
 }
 
 /// Errors of an estimated trajectory against the true one, both in the
