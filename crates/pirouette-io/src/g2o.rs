@@ -47,10 +47,7 @@ pub fn read_g2o(path: &Path) -> Result<G2oGraph, IoError> {
 
 /// [`read_g2o`] from any reader; `path` names the source in errors.
 pub fn parse_g2o(reader: impl BufRead, path: &Path) -> Result<G2oGraph, IoError> {
-    let mut vertices: Vec<(u64, Pose2)> = Vec::new();
-    let mut index: HashMap<u64, usize> = HashMap::new();
-    let mut edges: Vec<RawEdge> = Vec::new();
-    let mut fixed: Option<(usize, u64)> = None;
+    let mut lines = Lines::default();
     for (n, line) in reader.lines().enumerate() {
         let line_no = n + 1;
         let line = line.map_err(|e| IoError::io(path, e))?;
@@ -66,6 +63,32 @@ pub fn parse_g2o(reader: impl BufRead, path: &Path) -> Result<G2oGraph, IoError>
         let mut fields = text.split_whitespace();
         let tag = fields.next().unwrap_or("");
         let rest: Vec<&str> = fields.collect();
+        lines.take(line_no, tag, &rest, &bad)?;
+    }
+    lines.into_graph(path)
+}
+
+/// The lines of a g2o file read so far.
+#[derive(Default)]
+struct Lines {
+    /// Each vertex's id and pose, in file order.
+    vertices: Vec<(u64, Pose2)>,
+    /// A vertex id's place in `vertices`.
+    index: HashMap<u64, usize>,
+    edges: Vec<RawEdge>,
+    /// The `FIX` line's number and vertex.
+    fixed: Option<(usize, u64)>,
+}
+
+impl Lines {
+    /// Takes line `line_no`'s `tag` and fields; `bad` makes its errors.
+    fn take(
+        &mut self,
+        line_no: usize,
+        tag: &str,
+        rest: &[&str],
+        bad: &dyn Fn(String) -> IoError,
+    ) -> Result<(), IoError> {
         let id = |s: &str| {
             s.parse::<u64>()
                 .map_err(|_| bad(format!("`{s}` is not a vertex id")))
@@ -95,13 +118,13 @@ pub fn parse_g2o(reader: impl BufRead, path: &Path) -> Result<G2oGraph, IoError>
                 count(4)?;
                 let v = id(rest[0])?;
                 let pose = Pose2::new(number(rest[1])?, number(rest[2])?, number(rest[3])?);
-                if index.insert(v, vertices.len()).is_some() {
+                if self.index.insert(v, self.vertices.len()).is_some() {
                     return Err(bad(format!("vertex {v} is given twice")));
                 }
-                if vertices.len() >= MAX_ELEMENTS {
+                if self.vertices.len() >= MAX_ELEMENTS {
                     return Err(bad(format!("more than {MAX_ELEMENTS} vertices")));
                 }
-                vertices.push((v, pose));
+                self.vertices.push((v, pose));
             }
             "EDGE_SE2" => {
                 count(11)?;
@@ -113,14 +136,14 @@ pub fn parse_g2o(reader: impl BufRead, path: &Path) -> Result<G2oGraph, IoError>
                 let u: Vec<f64> = rest[5..11].iter().map(|s| number(s)).collect::<Result<_, _>>()?;
                 let info = [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]];
                 check_information(&info).map_err(bad)?;
-                if edges.len() >= MAX_ELEMENTS {
+                if self.edges.len() >= MAX_ELEMENTS {
                     return Err(bad(format!("more than {MAX_ELEMENTS} edges")));
                 }
-                edges.push((line_no, i, j, z, info));
+                self.edges.push((line_no, i, j, z, info));
             }
             "FIX" => {
                 count(1)?;
-                fixed = Some((line_no, id(rest[0])?));
+                self.fixed = Some((line_no, id(rest[0])?));
             }
             other => {
                 return Err(bad(format!(
@@ -128,45 +151,51 @@ pub fn parse_g2o(reader: impl BufRead, path: &Path) -> Result<G2oGraph, IoError>
                 )))
             }
         }
+        Ok(())
     }
-    let has_vertices = !vertices.is_empty();
-    if !has_vertices {
-        // The ids the edges name, in increasing order, at the origin.
-        let mut ids: Vec<u64> = edges.iter().flat_map(|e| [e.1, e.2]).collect();
-        ids.sort_unstable();
-        ids.dedup();
-        for (k, &v) in ids.iter().enumerate() {
-            index.insert(v, k);
-            vertices.push((v, Pose2::IDENTITY));
+
+    /// The graph the lines describe: where they give no vertices, the ids
+    /// the edges name, in increasing order, at the origin.
+    fn into_graph(mut self, path: &Path) -> Result<G2oGraph, IoError> {
+        let has_vertices = !self.vertices.is_empty();
+        if !has_vertices {
+            let mut ids: Vec<u64> = self.edges.iter().flat_map(|e| [e.1, e.2]).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            for (k, &v) in ids.iter().enumerate() {
+                self.index.insert(v, k);
+                self.vertices.push((v, Pose2::IDENTITY));
+            }
         }
-    }
-    let node = |line: usize, v: u64| {
-        index.get(&v).copied().ok_or_else(|| IoError::Line {
-            path: path.to_path_buf(),
-            line,
-            problem: format!("vertex {v} is not given in the file (a dangling edge)"),
+        let index = &self.index;
+        let node = |line: usize, v: u64| {
+            index.get(&v).copied().ok_or_else(|| IoError::Line {
+                path: path.to_path_buf(),
+                line,
+                problem: format!("vertex {v} is not given in the file (a dangling edge)"),
+            })
+        };
+        let mut graph = PoseGraph::new(self.vertices.iter().map(|v| v.1).collect());
+        for &(line, i, j, z, info) in &self.edges {
+            graph
+                .edges
+                .push(Edge::new(node(line, i)?, node(line, j)?, z, info));
+        }
+        if let Some((line, v)) = self.fixed {
+            graph.held = node(line, v)?;
+        }
+        if graph.poses.is_empty() {
+            return Err(IoError::invalid(
+                path,
+                "no vertices and no edges: not a pose graph",
+            ));
+        }
+        Ok(G2oGraph {
+            graph,
+            ids: self.vertices.iter().map(|v| v.0).collect(),
+            has_vertices,
         })
-    };
-    let mut graph = PoseGraph::new(vertices.iter().map(|v| v.1).collect());
-    for &(line, i, j, z, info) in &edges {
-        graph
-            .edges
-            .push(Edge::new(node(line, i)?, node(line, j)?, z, info));
     }
-    if let Some((line, v)) = fixed {
-        graph.held = node(line, v)?;
-    }
-    if graph.poses.is_empty() {
-        return Err(IoError::invalid(
-            path,
-            "no vertices and no edges: not a pose graph",
-        ));
-    }
-    Ok(G2oGraph {
-        graph,
-        ids: vertices.iter().map(|v| v.0).collect(),
-        has_vertices,
-    })
 }
 
 /// Writes a pose graph in g2o's format (every vertex, then every edge, with
