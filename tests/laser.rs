@@ -4,7 +4,7 @@
 use crate::util::{pirouette, shared};
 use pirouette::eval::laser::{aligned_ate, evaluate_laser, relative_errors};
 use pirouette::geom::Pose2;
-use pirouette::laser::{register_log, LaserConfig, LoopConfig, RegisteredLog};
+use pirouette::laser::{check_config, register_log, LaserConfig, LoopConfig, RegisteredLog};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -251,6 +251,38 @@ fn the_place_index_closes_loops_the_estimate_has_lost() {
         ate_lost > 1.0,
         "ATE {ate_lost} m without the index: the test's log is too easy"
     );
+}
+
+#[test]
+fn absurd_laser_settings_are_refused_before_reading() {
+    assert!(check_config(&LaserConfig::default()).is_ok());
+    let with = |f: &dyn Fn(&mut LaserConfig)| {
+        let mut c = LaserConfig::default();
+        f(&mut c);
+        check_config(&c).map_err(|e| e.to_string())
+    };
+    for (case, config) in [
+        ("no local map", with(&|c| c.local_scans = 0)),
+        (
+            "a local map of 10^12 scans",
+            with(&|c| c.local_scans = 1_000_000_000_000),
+        ),
+        (
+            "keyframe maps of 10^12 scans",
+            with(&|c| c.loops.anchor_scans = 1_000_000_000_000),
+        ),
+        (
+            "NaN keyframe spacing",
+            with(&|c| c.loops.keyframe_spacing_m = f64::NAN),
+        ),
+        ("negative confirmation", with(&|c| c.loops.confirm_m = -1.0)),
+    ] {
+        let err = config.expect_err(case);
+        assert!(
+            err.contains("scans") || err.contains("loop closure"),
+            "{case}: {err}"
+        );
+    }
 }
 
 #[test]

@@ -266,6 +266,10 @@ pub fn step_prior(previous: &Pose2, odometry: Option<&Pose2>, config: &LaserConf
     }
 }
 
+/// The most scans a local map or a keyframe's map (each side) may hold:
+/// their endpoints are kept in memory.
+pub const MAX_WINDOW_SCANS: usize = 10_000;
+
 /// Checks the settings before any line is read.
 pub fn check_config(config: &LaserConfig) -> Result<()> {
     let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -282,8 +286,12 @@ pub fn check_config(config: &LaserConfig) -> Result<()> {
     {
         bail!("the local map's cell and the unknown step's spreads must be positive");
     }
-    if config.local_scans == 0 {
-        bail!("the local map must hold at least one scan");
+    if !(1..=MAX_WINDOW_SCANS).contains(&config.local_scans) || config.loops.anchor_scans > MAX_WINDOW_SCANS {
+        bail!(
+            "the local map must hold 1 to {MAX_WINDOW_SCANS} scans, a keyframe's map at most that many each side (given {} and {})",
+            config.local_scans,
+            config.loops.anchor_scans
+        );
     }
     let l = &config.loops;
     let spreads = [

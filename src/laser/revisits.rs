@@ -112,7 +112,7 @@ impl Keyframes {
         if let Some(signature) = signature {
             let meta = PlaceMeta {
                 dataset: 0,
-                sweep: j as u32,
+                sweep: u32::try_from(j).unwrap_or(u32::MAX),
                 truth: None,
                 profile: None,
             };
