@@ -58,7 +58,7 @@ fn matching(c: &mut Criterion) {
         group.bench_with_input(
             BenchmarkId::new("direct", &label),
             &(&before, &after),
-            |b, (p, q)| b.iter(|| match_turn(black_box(p), black_box(q), 30f64.to_radians(), &config)),
+            |b, (p, q)| b.iter(|| match_turn(black_box(*p), black_box(*q), 30f64.to_radians(), &config)),
         );
         group.bench_with_input(
             BenchmarkId::new("fft-ssd", &label),

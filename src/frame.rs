@@ -5,8 +5,10 @@
 //! scans with [`laser_frame`]. Nothing after the frames knows which sensor
 //! made them.
 
+use crate::pipeline::FrameProfiles;
 use pirouette_geom::Pose2;
 use pirouette_io::{Dataset, LaserScan, Motion};
+use pirouette_profile::matching::MatchView;
 use pirouette_profile::Rop;
 
 /// How the robot got from the previous frame to this one.
@@ -35,29 +37,51 @@ pub struct Frame {
     pub rop: Rop,
     /// The profile registration compares with the map of other frames.
     pub compared: Rop,
-    /// The profile turns are verified on; a sensor's extra cue, such as
-    /// vision's texture ranges, travels in it
-    /// ([`Rop::intermittent_m`](pirouette_profile::Rop::intermittent_m)).
+    /// The profile turns are verified on.
     pub matched: Rop,
+    /// A sensor's intermittent cue beside `matched`, one range per bin
+    /// (vision's texture cue; see
+    /// [`MatchView::cue_m`](pirouette_profile::matching::MatchView::cue_m)):
+    /// empty where the sensor has none.
+    pub cue_m: Vec<f32>,
 }
 
 /// The frames of a camera dataset, from its profiles: one of each kind per
 /// manifest frame, in capture order (see
 /// [`SweepProfiles`](crate::pipeline::SweepProfiles)).
-pub fn camera_frames(ds: &Dataset, rops: Vec<Rop>, compared: Vec<Rop>, matched: Vec<Rop>) -> Vec<Frame> {
+pub fn camera_frames(ds: &Dataset, profiles: FrameProfiles) -> Vec<Frame> {
+    let FrameProfiles {
+        rops,
+        compared,
+        matched,
+        cues,
+    } = profiles;
+    // No cue where the profiles have none.
+    let cues = cues.into_iter().chain(std::iter::repeat_with(Vec::new));
     ds.manifest
         .frames
         .iter()
-        .zip(rops.into_iter().zip(compared).zip(matched))
-        .map(|(f, ((rop, compared), matched))| Frame {
+        .zip(rops.into_iter().zip(compared).zip(matched).zip(cues))
+        .map(|(f, (((rop, compared), matched), cue_m))| Frame {
             label: f.image.clone(),
             sweep: f.sweep,
             motion: f.motion.map(Step::Commanded),
             rop,
             compared,
             matched,
+            cue_m,
         })
         .collect()
+}
+
+impl Frame {
+    /// The profile turns are verified on, with its cue.
+    pub fn match_view(&self) -> MatchView<'_> {
+        MatchView {
+            rop: &self.matched,
+            cue_m: &self.cue_m,
+        }
+    }
 }
 
 impl Frame {
@@ -88,6 +112,7 @@ pub fn laser_frame(scan: &LaserScan, max_range_m: f32) -> Frame {
         motion: scan.odometry.map(Step::Odometry),
         compared: rop.clone(),
         matched: rop.clone(),
+        cue_m: Vec::new(),
         rop,
     }
 }

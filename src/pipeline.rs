@@ -12,7 +12,8 @@ use crate::mapping::{build_map, check_extent, MapConfig, MapRun};
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
 use pirouette_io::{Dataset, Motion};
-use pirouette_profile::sweep::{assemble, join, pivot_from_turns, Sweep, SweepConfig};
+use pirouette_profile::matching::MatchView;
+use pirouette_profile::sweep::{assemble_views, join, pivot_from_turns, Sweep, SweepConfig};
 use pirouette_profile::Rop;
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
@@ -129,16 +130,12 @@ pub fn sweep_dataset(
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<Swept> {
     // Every frame's profiles: for the grid, for comparing views, for turns.
-    let SweepProfiles {
-        extractor,
-        rops,
-        compared,
-        matched,
-    } = sweep_profiles(ds, config.model, config.vision.clone(), || {
-        progress(Stage::Profiled)
-    })?;
+    let SweepProfiles { extractor, frames } =
+        sweep_profiles(ds, config.model, config.vision.clone(), || {
+            progress(Stage::Profiled)
+        })?;
     // The back end's input: each frame's profiles and motion.
-    let frames = camera_frames(ds, rops, compared, matched);
+    let frames = camera_frames(ds, frames);
     // Turns verified and sweeps assembled, about the pivot the turns
     // measure, to a tenth of the camera's finest row step.
     let least_sigma = extractor
@@ -251,18 +248,26 @@ fn profiles_with(
 pub struct SweepProfiles {
     /// The extractor of `rops` (camera tables, settings).
     pub extractor: RopExtractor,
-    /// One profile per frame, as the settings give it: for the map's grid.
+    /// The profiles.
+    pub frames: FrameProfiles,
+}
+
+/// One profile per frame for each use, in manifest order.
+pub struct FrameProfiles {
+    /// As the settings give it: for the map's grid.
     pub rops: Vec<Rop>,
-    /// One profile per frame for comparing views (a sweep registered
-    /// against the map of the others): the settings'
-    /// [`VisionConfig::for_comparing`]; a copy of `rops` where those are
-    /// the same.
+    /// For comparing views (a sweep registered against the map of the
+    /// others): the settings' [`VisionConfig::for_comparing`]; a copy of
+    /// `rops` where those are the same.
     pub compared: Vec<Rop>,
-    /// One profile per frame to verify turns on: the settings'
-    /// [`VisionConfig::for_matching`], with the ranges of `compared` as
-    /// the intermittent cue's (`Rop::intermittent_m`); a copy of
-    /// `compared` where the matching settings are the same.
+    /// To verify turns on: the settings' [`VisionConfig::for_matching`]; a
+    /// copy of `compared` where those are the same.
     pub matched: Vec<Rop>,
+    /// The intermittent cue beside `matched`: the ranges of `compared`
+    /// where the matching settings leave out the texture cue (see
+    /// [`MatchView::cue_m`](pirouette_profile::matching::MatchView::cue_m));
+    /// empty where they do not.
+    pub cues: Vec<Vec<f32>>,
 }
 
 /// Profiles every frame with `config` for the map, with its comparing
@@ -295,21 +300,22 @@ pub fn sweep_profiles(
     };
     // The cue left out of the matched profiles is an intermittent one:
     // its ranges go with them, compared only where both views have one.
-    let matched = match matching {
+    let (matched, cues) = match matching {
         Some(_) => {
-            let mut matched = sets.next().expect("the matching extractor");
-            for (m, r) in matched.iter_mut().zip(&compared) {
-                m.intermittent_m = r.range_m.clone();
-            }
-            matched
+            let matched = sets.next().expect("the matching extractor");
+            let cues = compared.iter().map(|r| r.range_m.clone()).collect();
+            (matched, cues)
         }
-        None => compared.clone(),
+        None => (compared.clone(), Vec::new()),
     };
     Ok(SweepProfiles {
         extractor,
-        rops,
-        compared,
-        matched,
+        frames: FrameProfiles {
+            rops,
+            compared,
+            matched,
+            cues,
+        },
     })
 }
 
@@ -358,12 +364,12 @@ pub fn sweeps(
             _ => groups.push((f.sweep, vec![i])),
         }
     }
-    let inputs: Vec<(Vec<Option<f64>>, Vec<Rop>)> = groups
+    let inputs: Vec<(Vec<Option<f64>>, Vec<MatchView>)> = groups
         .iter()
         .map(|(_, members)| {
             (
                 commanded_turns(|i| frames[i].commanded(), members),
-                members.iter().map(|&i| frames[i].matched.clone()).collect(),
+                members.iter().map(|&i| frames[i].match_view()).collect(),
             )
         })
         .collect();
@@ -374,7 +380,7 @@ pub fn sweeps(
             .map(|((id, members), (commanded, sweep_rops))| DatasetSweep {
                 id: *id,
                 frames: members.clone(),
-                sweep: assemble(sweep_rops, commanded, config),
+                sweep: assemble_views(sweep_rops, commanded, config),
             })
             .collect()
     };
@@ -395,8 +401,7 @@ pub fn sweeps(
     // 360° profile is theirs.
     for s in &mut sweeps {
         if s.frames.iter().any(|&i| frames[i].rop != frames[i].matched) {
-            let own: Vec<Rop> = s.frames.iter().map(|&i| frames[i].rop.clone()).collect();
-            s.sweep.rop = join(&own, &s.sweep.heading_rad);
+            s.sweep.rop = join(s.frames.iter().map(|&i| &frames[i].rop), &s.sweep.heading_rad);
         }
     }
     (sweeps, config)

@@ -114,7 +114,9 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
         bin_width_rad: 0.25f64.to_radians(),
         ..VisionConfig::default()
     };
-    let p = pipeline::sweep_profiles(&ds, None, config.clone(), || {}).unwrap();
+    let p = pipeline::sweep_profiles(&ds, None, config.clone(), || {})
+        .unwrap()
+        .frames;
     let profiles_with = |c: VisionConfig| {
         let extractor = pipeline::extractor(&ds, None, c).unwrap();
         pipeline::profiles(&ds, &extractor, || {}).unwrap()
@@ -124,11 +126,12 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
     let compared = profiles_with(config.for_comparing().unwrap());
     assert!(p.compared.iter().zip(&compared).all(|(a, b)| same(a, b)));
     let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(p.cues.len(), p.compared.len());
     assert!(p
-        .matched
+        .cues
         .iter()
         .zip(&p.compared)
-        .all(|(m, r)| bits(&m.intermittent_m) == bits(&r.range_m)));
+        .all(|(c, r)| bits(c) == bits(&r.range_m)));
     assert!(
         p.compared.iter().zip(&p.matched).any(|(a, b)| !same(a, b)),
         "the texture cue found nothing on this render"
@@ -137,7 +140,8 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
         p.rops.iter().zip(&p.compared).any(|(a, b)| !same(a, b)),
         "faint steps found nothing on this render"
     );
-    let frames = camera_frames(&ds, p.rops.clone(), p.compared.clone(), p.matched.clone());
+    let rops = p.rops.clone();
+    let frames = camera_frames(&ds, p);
     let matched_only: Vec<_> = (frames.iter().cloned())
         .map(|mut f| {
             f.rop = f.matched.clone();
@@ -150,7 +154,7 @@ fn turns_are_verified_without_the_texture_cue_and_joined_with_it() {
     for (b, a) in both.iter().zip(&alone) {
         assert_eq!(b.sweep.turns, a.sweep.turns);
         assert_eq!(b.sweep.heading_rad, a.sweep.heading_rad);
-        let own: Vec<_> = b.frames.iter().map(|&i| p.rops[i].clone()).collect();
+        let own: Vec<_> = b.frames.iter().map(|&i| rops[i].clone()).collect();
         assert!(same(
             &b.sweep.rop,
             &pirouette::profile::sweep::join(&own, &b.sweep.heading_rad)

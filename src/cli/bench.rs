@@ -121,10 +121,13 @@ fn time_turns(
         notes.push("no turns to match: turn timings left out".to_string());
         return 0;
     }
+    // The direct search reads the profiles with their cue, as sweeps do;
+    // the FFT correlation has no use for it.
+    let view = |i: usize| swept.frames[i].match_view();
     let matched = |i: usize| &swept.frames[i].matched;
     timings.push(measure("turn: direct search", pairs.len(), repeat, |k| {
         let (b, c, cmd) = pairs[k];
-        black_box(match_turn(matched(b), matched(c), cmd, matching));
+        black_box(match_turn(view(b), view(c), cmd, matching));
     }));
     let mut fft = FftCorrelation::new();
     let (window, overlap) = (matching.window_rad, matching.min_overlap_rad);
@@ -140,7 +143,7 @@ fn time_turns(
             continue;
         };
         let turn = tc - tb;
-        let direct = match_turn(matched(b), matched(c), cmd, matching).turn_rad;
+        let direct = match_turn(view(b), view(c), cmd, matching).turn_rad;
         let f = fft
             .match_turn(matched(b), matched(c), cmd, window, overlap)
             .unwrap_or(cmd);

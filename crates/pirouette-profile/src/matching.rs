@@ -248,16 +248,52 @@ impl TurnEstimate {
     }
 }
 
+/// A profile as rotation matching reads it: its ranges, reaches and
+/// colours, and where the sensor has one, the ranges of an intermittent
+/// cue. A plain `&Rop` is a view without the cue.
+#[derive(Debug, Clone, Copy)]
+pub struct MatchView<'a> {
+    /// The profile.
+    pub rop: &'a Rop,
+    /// One range per bin found by a cue that finds true obstacles but not
+    /// in every view (a camera's texture cue near the soft limit): finite
+    /// where it found an obstacle; empty where the sensor has no such cue.
+    /// Matching compares these where both views have one in a bin, and
+    /// elsewhere the profile's ranges: that such a cue found nothing is no
+    /// evidence.
+    pub cue_m: &'a [f32],
+}
+
+impl<'a> From<&'a Rop> for MatchView<'a> {
+    fn from(rop: &'a Rop) -> Self {
+        Self { rop, cue_m: &[] }
+    }
+}
+
+impl MatchView<'_> {
+    /// The range the cue found in bin `i`, if any.
+    pub fn cue(&self, i: usize) -> Option<f32> {
+        self.cue_m.get(i).copied().filter(|r| r.is_finite())
+    }
+}
+
 /// Verifies a turn: the angle between `before` and `after` nearest to
 /// `commanded_rad` within the window. Both profiles must have the same bin
-/// width (any width, any field of view: laser scans too).
+/// width (any width, any field of view: laser scans too); either may be a
+/// plain `&Rop` or a [`MatchView`] with a sensor's intermittent cue.
 ///
 /// # Panics
 /// When the bin widths differ by more than a part in a million.
-pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchConfig) -> TurnEstimate {
-    let w = before.bin_width_rad;
+pub fn match_turn<'a, 'b>(
+    before: impl Into<MatchView<'a>>,
+    after: impl Into<MatchView<'b>>,
+    commanded_rad: f64,
+    config: &MatchConfig,
+) -> TurnEstimate {
+    let (before, after): (MatchView, MatchView) = (before.into(), after.into());
+    let w = before.rop.bin_width_rad;
     assert!(
-        (after.bin_width_rad - w).abs() <= 1e-6 * w,
+        (after.rop.bin_width_rad - w).abs() <= 1e-6 * w,
         "profiles of different bin widths"
     );
     let fallback = |evidence, confidence, overlap_bins, candidate_rad| TurnEstimate {
@@ -269,7 +305,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
         candidate_rad,
         shift: None,
     };
-    let offset = ((after.bearing_start_rad - before.bearing_start_rad) / w).round() as i64;
+    let offset = ((after.rop.bearing_start_rad - before.rop.bearing_start_rad) / w).round() as i64;
     let k_cmd = (commanded_rad / w).round() as i64;
     let k_win = (config.window_rad / w).ceil() as i64;
     let (a, b) = (cells(after), cells(before));
@@ -309,7 +345,7 @@ pub fn match_turn(before: &Rop, after: &Rop, commanded_rad: f64, config: &MatchC
     };
     // With the robot's small shift during the turn.
     let refined = (config.turn_shift_m > 0.0)
-        .then(|| refine_with_shift(before, after, k * w, sigma as f64, config))
+        .then(|| refine_with_shift(before.rop, after.rop, k * w, sigma as f64, config))
         .flatten();
     let turn = refined.map_or(k * w, |(turn, _)| turn);
     TurnEstimate {

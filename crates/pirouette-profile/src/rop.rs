@@ -82,14 +82,6 @@ pub struct Rop {
     /// [`Rop::free_reach`].
     #[serde(default)]
     pub free_m: Vec<f32>,
-    /// The ranges per bin with one more cue, which finds true obstacles
-    /// but not in every view (a camera's texture cue near the soft limit):
-    /// finite where there is an obstacle; empty where there is no such
-    /// cue. Rotation matching compares them where both profiles have one
-    /// in a bin, and elsewhere `range_m`: that such a cue found nothing is
-    /// no evidence. Read it with [`Rop::intermittent`].
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub intermittent_m: Vec<f32>,
 }
 
 impl Rop {
@@ -135,7 +127,6 @@ impl Rop {
             colour: vec![None; bins],
             max_range_m,
             free_m: vec![f32::INFINITY; bins],
-            intermittent_m: Vec::new(),
         }
     }
 
@@ -188,12 +179,6 @@ impl Rop {
     /// as its range says; see [`Rop::free_m`]).
     pub fn free_reach(&self, i: usize) -> f32 {
         self.free_m.get(i).copied().unwrap_or(f32::INFINITY)
-    }
-
-    /// The range the intermittent cue found in bin `i`, if any (see
-    /// [`Rop::intermittent_m`]).
-    pub fn intermittent(&self, i: usize) -> Option<f32> {
-        self.intermittent_m.get(i).copied().filter(|r| r.is_finite())
     }
 
     /// The colour tag of bin `i` where its range is reliable.

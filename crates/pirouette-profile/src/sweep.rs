@@ -1,6 +1,6 @@
 //! Radial sweeps: the profiles of one pirouette joined into 360°.
 
-use crate::matching::{match_turn, Evidence, MatchConfig, TurnEstimate};
+use crate::matching::{match_turn, Evidence, MatchConfig, MatchView, TurnEstimate};
 use crate::{ColourTag, Rop};
 use std::f64::consts::{PI, TAU};
 
@@ -134,9 +134,16 @@ pub struct Sweep {
 /// matches, with the variance of [`SweepConfig::candidate_sigma_rad`],
 /// instead of at their commands, and count as fixed by the loop.
 pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfig) -> Sweep {
+    let views: Vec<MatchView> = rops.iter().map(MatchView::from).collect();
+    assemble_views(&views, commanded_rad, config)
+}
+
+/// [`assemble`] of profiles with a sensor's intermittent cue (see
+/// [`MatchView`]); the 360° profile is joined from the views' profiles.
+pub fn assemble_views(rops: &[MatchView], commanded_rad: &[Option<f64>], config: &SweepConfig) -> Sweep {
     assert_eq!(rops.len(), commanded_rad.len(), "one command per profile");
     let mut turns: Vec<Option<TurnEstimate>> = (0..rops.len())
-        .map(|k| commanded_rad[k].map(|cmd| match_turn(&rops[k - 1], &rops[k], cmd, &config.matching)))
+        .map(|k| commanded_rad[k].map(|cmd| match_turn(rops[k - 1], rops[k], cmd, &config.matching)))
         .collect();
     let closure = if config.close_loop {
         close_loop(rops, &mut turns, config)
@@ -170,7 +177,7 @@ pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfi
             heading
         })
         .collect();
-    let rop = join(rops, &heading_rad);
+    let rop = join(rops.iter().map(|v| v.rop), &heading_rad);
     Sweep {
         turns,
         heading_rad,
@@ -180,9 +187,13 @@ pub fn assemble(rops: &[Rop], commanded_rad: &[Option<f64>], config: &SweepConfi
     }
 }
 
-fn close_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], config: &SweepConfig) -> Option<LoopClosure> {
-    let first = rops.first()?;
-    let view = first.len() as f64 * first.bin_width_rad;
+fn close_loop(
+    rops: &[MatchView],
+    turns: &mut [Option<TurnEstimate>],
+    config: &SweepConfig,
+) -> Option<LoopClosure> {
+    let first = *rops.first()?;
+    let view = first.rop.len() as f64 * first.rop.bin_width_rad;
     let max_closing = view - config.matching.min_overlap_rad;
     let var = |t: &TurnEstimate| config.turn_sigma_rad(t).powi(2);
     // The frame nearest to coming round: estimated heading closest to 360°
@@ -205,7 +216,7 @@ fn close_loop(rops: &[Rop], turns: &mut [Option<TurnEstimate>], config: &SweepCo
         window_rad: config.matching.window_rad + 3.0 * heading_var.sqrt(),
         ..config.matching.clone()
     };
-    let closing = match_turn(&rops[k], first, closing_est, &closing_config);
+    let closing = match_turn(rops[k], first, closing_est, &closing_config);
     if closing.fallback {
         return Some(LoopClosure {
             frame: k,
@@ -297,13 +308,13 @@ fn spread_residual(
 /// a verified one (within half a basin, [`MatchConfig::basin_rad`]).
 /// Returns the links `(j, k)` of the re-matched frames.
 fn rematch_after_loop(
-    rops: &[Rop],
+    rops: &[MatchView],
     turns: &mut [Option<TurnEstimate>],
     from: usize,
     config: &SweepConfig,
 ) -> Vec<(usize, usize)> {
     let mut links = Vec::new();
-    let view = rops[0].len() as f64 * rops[0].bin_width_rad;
+    let view = rops[0].rop.len() as f64 * rops[0].rop.bin_width_rad;
     let max_turn = view - config.matching.min_overlap_rad;
     for k in from..rops.len() {
         let Some(t) = turns[k] else { continue };
@@ -333,7 +344,7 @@ fn rematch_after_loop(
         if !no_overlap && relative.abs() >= t.turn_rad.abs() {
             continue;
         }
-        let m = match_turn(&rops[j], &rops[k], relative, &config.matching);
+        let m = match_turn(rops[j], rops[k], relative, &config.matching);
         // On the command's branch of the circle.
         let turn = t.turn_rad + wrap(heading[j] + m.turn_rad - heading[k - 1] - t.turn_rad);
         // A verified turn that the wider overlap confirms (within half a
@@ -417,8 +428,9 @@ fn wrap(a: f64) -> f64 {
 /// caller that verified the turns on other profiles of the same frames
 /// (see `pirouette_vision::VisionConfig::for_matching`) joins its own with
 /// the sweep's headings.
-pub fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
-    let Some(first) = rops.first() else {
+pub fn join<'a>(rops: impl IntoIterator<Item = &'a Rop>, heading_rad: &[f64]) -> Rop {
+    let mut rops = rops.into_iter().peekable();
+    let Some(&first) = rops.peek() else {
         return Rop::empty(-PI, TAU, 0, 1.0);
     };
     let w = first.bin_width_rad;
@@ -426,7 +438,7 @@ pub fn join(rops: &[Rop], heading_rad: &[f64]) -> Rop {
     let mut out = Rop::covering(-PI, PI - w, w, first.max_range_m).expect("valid bin width");
     let n = out.len();
     let mut samples: Vec<Vec<(f32, Option<ColourTag>)>> = vec![Vec::new(); n];
-    for (rop, &h) in rops.iter().zip(heading_rad) {
+    for (rop, &h) in rops.zip(heading_rad) {
         for i in 0..rop.len() {
             if !rop.seen(i) {
                 continue;

@@ -271,7 +271,7 @@ impl Pair<'_> {
     ///   obstacle within the other's reach (two bins that both see nothing
     ///   agree trivially, and an obstacle beyond the floor the other saw
     ///   is no evidence); where both bins have an intermittent cue's range
-    ///   ([`Rop::intermittent_m`](crate::Rop::intermittent_m)), the difference of those instead, always
+    ///   ([`MatchView::cue_m`](super::MatchView::cue_m)), the difference of those instead, always
     ///   informative (one bin with such a range against one without is
     ///   compared by their ranges alone: the cue's silence is no evidence);
     /// - its colour cost when both have a colour: the larger difference of

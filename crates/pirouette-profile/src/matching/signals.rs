@@ -1,7 +1,7 @@
 //! The matching signal: each bin's inverse range, the reach it saw, its
 //! colour and the intermittent cue's range, and how two bins compare.
 
-use crate::Rop;
+use super::MatchView;
 
 /// Per-bin matching signal.
 #[derive(Debug, Clone, Copy)]
@@ -14,7 +14,7 @@ pub(super) struct Cell {
     pub(super) inv_hi: f32,
     /// Chromaticity shares (r, g) where the bin has a colour.
     pub(super) chroma: Option<[f32; 2]>,
-    /// Inverse of the intermittent cue's range ([`Rop::intermittent_m`]);
+    /// Inverse of the intermittent cue's range ([`MatchView::cue_m`]);
     /// NaN where it found nothing or the bin was not seen.
     pub(super) inv_c: f32,
 }
@@ -84,7 +84,8 @@ impl Signals {
     }
 }
 
-pub(super) fn cells(rop: &Rop) -> Vec<Cell> {
+pub(super) fn cells(view: MatchView) -> Vec<Cell> {
+    let rop = view.rop;
     (0..rop.len())
         .map(|i| {
             let r = rop.range_m[i];
@@ -100,7 +101,7 @@ pub(super) fn cells(rop: &Rop) -> Vec<Cell> {
             } else {
                 inv
             };
-            let inv_c = match rop.intermittent(i) {
+            let inv_c = match view.cue(i) {
                 Some(c) if !inv.is_nan() => 1.0 / c.max(1e-3),
                 _ => f32::NAN,
             };

@@ -207,12 +207,13 @@ fn an_intermittent_cue_counts_where_both_views_have_it() {
         (190.0, 30.0),
         (160.0, 25.0),
     ] {
+        // Open floor, the cue's stretches of wall, and the same stretches
+        // as steady ranges.
         let mut views = |heading: f64| {
             let mut blank =
                 Rop::covering(-30f64.to_radians(), 30f64.to_radians(), 0.25f64.to_radians(), 0.9).unwrap();
             blank.range_m.fill(f32::INFINITY);
-            let mut seen = blank.clone();
-            seen.intermittent_m = (0..blank.len())
+            let cue: Vec<f32> = (0..blank.len())
                 .map(|i| {
                     let r = wall(heading.to_radians() + blank.bin_centre_rad(i));
                     if rng.random::<f32>() < 0.7 {
@@ -223,19 +224,25 @@ fn an_intermittent_cue_counts_where_both_views_have_it() {
                 })
                 .collect();
             let mut steady = blank.clone();
-            steady.range_m = seen.intermittent_m.clone();
-            [blank, seen, steady]
+            steady.range_m.clone_from(&cue);
+            (blank, cue, steady)
         };
         let (before, after) = (views(h), views(h + turn));
+        fn with_cue(v: &(Rop, Vec<f32>, Rop)) -> MatchView<'_> {
+            MatchView {
+                rop: &v.0,
+                cue_m: &v.1,
+            }
+        }
         let cmd = 30f64.to_radians();
-        let blank = match_turn(&before[0], &after[0], cmd, &config);
+        let blank = match_turn(&before.0, &after.0, cmd, &config);
         assert!(blank.fallback, "h={h}: open floor verified {blank:?}");
-        let est = match_turn(&before[1], &after[1], cmd, &config);
+        let est = match_turn(with_cue(&before), with_cue(&after), cmd, &config);
         assert!(!est.fallback, "h={h} turn={turn}: {est:?}");
         let err = (est.turn_rad.to_degrees() - turn).abs();
         assert!(err < 0.25, "h={h} turn={turn}: got {}", est.turn_rad.to_degrees());
         intermittent_confidence += est.confidence;
-        let steady = match_turn(&before[2], &after[2], cmd, &config);
+        let steady = match_turn(&before.2, &after.2, cmd, &config);
         steady_confidence += if steady.fallback { 0.0 } else { steady.confidence };
     }
     assert!(

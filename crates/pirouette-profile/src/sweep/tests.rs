@@ -291,7 +291,8 @@ fn a_frame_after_the_loop_is_matched_against_the_frame_it_faces() {
             ..measured
         };
         turns[12] = Some(given);
-        let links = rematch_after_loop(&rops, &mut turns, 12, &config);
+        let views: Vec<MatchView> = rops.iter().map(MatchView::from).collect();
+        let links = rematch_after_loop(&views, &mut turns, 12, &config);
         let t = turns[12].unwrap();
         if replaced {
             assert_eq!(links, [(1, 12)]);
