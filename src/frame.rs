@@ -5,7 +5,6 @@
 //! scans with [`laser_frame`]. Nothing after the frames knows which sensor
 //! made them.
 
-use crate::pipeline::FrameProfiles;
 use pirouette_geom::Pose2;
 use pirouette_io::{Dataset, LaserScan, Motion};
 use pirouette_profile::matching::MatchView;
@@ -44,6 +43,26 @@ pub struct Frame {
     /// [`MatchView::cue_m`](pirouette_profile::matching::MatchView::cue_m)):
     /// empty where the sensor has none.
     pub cue_m: Vec<f32>,
+}
+
+/// One profile per frame for each use, in manifest order.
+pub struct FrameProfiles {
+    /// As the settings give it: for the map's grid.
+    pub rops: Vec<Rop>,
+    /// For comparing views (a sweep registered against the map of the
+    /// others): the settings'
+    /// [`VisionConfig::for_comparing`](pirouette_vision::VisionConfig::for_comparing);
+    /// a copy of `rops` where those are the same.
+    pub compared: Vec<Rop>,
+    /// To verify turns on: the settings'
+    /// [`VisionConfig::for_matching`](pirouette_vision::VisionConfig::for_matching);
+    /// a copy of `compared` where those are the same.
+    pub matched: Vec<Rop>,
+    /// The intermittent cue beside `matched`: the ranges of `compared`
+    /// where the matching settings leave out the texture cue (see
+    /// [`MatchView::cue_m`](pirouette_profile::matching::MatchView::cue_m));
+    /// empty where they do not.
+    pub cues: Vec<Vec<f32>>,
 }
 
 /// The frames of a camera dataset, from its profiles: one of each kind per

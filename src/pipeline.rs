@@ -7,7 +7,7 @@
 //! ([`sweep_profiles`], [`sweeps`], [`crate::mapping::build_map`]) are
 //! public for benchmarks and for callers that need one stage alone.
 
-use crate::frame::{camera_frames, camera_motions, Frame};
+use crate::frame::{camera_frames, camera_motions, Frame, FrameProfiles};
 use crate::mapping::{build_map, check_extent, MapConfig, MapRun};
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
@@ -250,24 +250,6 @@ pub struct SweepProfiles {
     pub extractor: RopExtractor,
     /// The profiles.
     pub frames: FrameProfiles,
-}
-
-/// One profile per frame for each use, in manifest order.
-pub struct FrameProfiles {
-    /// As the settings give it: for the map's grid.
-    pub rops: Vec<Rop>,
-    /// For comparing views (a sweep registered against the map of the
-    /// others): the settings' [`VisionConfig::for_comparing`]; a copy of
-    /// `rops` where those are the same.
-    pub compared: Vec<Rop>,
-    /// To verify turns on: the settings' [`VisionConfig::for_matching`]; a
-    /// copy of `compared` where those are the same.
-    pub matched: Vec<Rop>,
-    /// The intermittent cue beside `matched`: the ranges of `compared`
-    /// where the matching settings leave out the texture cue (see
-    /// [`MatchView::cue_m`](pirouette_profile::matching::MatchView::cue_m));
-    /// empty where they do not.
-    pub cues: Vec<Vec<f32>>,
 }
 
 /// Profiles every frame with `config` for the map, with its comparing
