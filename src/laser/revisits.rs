@@ -302,17 +302,11 @@ impl Keyframes {
 /// frame): each 1° bin the nearest point's range, bins no point falls in
 /// unseen.
 pub(super) fn view(points: &[Point2], max_range_m: f32) -> Rop {
-    let width = TAU / VIEW_BINS as f64;
-    let mut rop = Rop::empty(-PI, width, VIEW_BINS, max_range_m);
+    let mut rop = Rop::empty(-PI, TAU / VIEW_BINS as f64, VIEW_BINS, max_range_m);
     for p in points {
         let r = p.norm() as f32;
-        if !(r.is_finite() && r > 0.0) {
-            continue;
-        }
-        let bin = (((p.y.atan2(p.x) + PI) / width).floor() as usize).min(VIEW_BINS - 1);
-        let slot = &mut rop.range_m[bin];
-        if slot.is_nan() || r < *slot {
-            *slot = r;
+        if r.is_finite() && r > 0.0 {
+            rop.insert(p.bearing(), r, None);
         }
     }
     rop
