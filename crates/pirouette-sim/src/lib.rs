@@ -11,6 +11,8 @@
 //!   specks, sensor noise, 2 × 2 supersampling).
 //! - [`true_profile`]: the true radial profile of a pose, by 2D ray casting.
 //! - [`render_dataset`]: all of it, written to a folder.
+//! - [`LogSim`]: simulated 2D laser logs (CARMEN text) of a path among
+//!   [`Walls`], such as an [`OfficeFloor`] the robot wanders for ever.
 //!
 //! ```no_run
 //! use pirouette_sim::{Scene, render_dataset};
@@ -21,11 +23,13 @@
 #![deny(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+mod laser;
 mod motion;
 mod render;
 mod scene;
 mod truth;
 
+pub use laser::{LogLine, LogSim, LogWriter, OfficeFloor, Walls};
 pub use motion::{plan_route, PlannedFrame};
 pub use render::Renderer;
 pub use scene::{CameraSetup, Look, MotionErrors, Route, Scene, SimError, BUILTIN_SCENES};
