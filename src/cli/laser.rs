@@ -52,10 +52,11 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
     let kept = loops.iter().filter(|l| l.kept).count();
     let recognised = loops.iter().filter(|l| l.kept && l.recognised).count();
     outln!(
-        "{kept} loops closed, {recognised} of them found by the place index ({} revisit searches among {} places kept; {} matches dropped as inconsistent with the rest of the graph)",
+        "{kept} loops closed, {recognised} of them found by the place index ({} revisit searches among {} places kept; {} matches dropped as inconsistent with the rest of the graph; the graph solved {} times)",
         mapped.registered.loop_searches,
         mapped.registered.keyframes,
-        loops.len() - kept
+        loops.len() - kept,
+        mapped.registered.solves
     )?;
     if unregistered > 0 {
         outln!("{unregistered} scans matched too little of the map and kept their odometry")?;

@@ -338,6 +338,9 @@ pub struct RegisteredLog {
     pub loop_searches: usize,
     /// Places kept for revisits (see [`LoopConfig::keyframe_spacing_m`]).
     pub keyframes: usize,
+    /// Times the pose graph was solved: only for loops that disagree with
+    /// the poses (see [`SOLVE_GATE`]), and once at the end for any left.
+    pub solves: usize,
     /// The pose graph at its solution: a node per scan (the scan's
     /// pose), an edge per step and per loop kept.
     pub graph: PoseGraph,
@@ -352,16 +355,31 @@ struct Mapper<'c> {
     /// The endpoints of scans `first..first + recent.len()`.
     recent: VecDeque<Vec<Point2>>,
     first: usize,
-    poses: Vec<Pose2>,
+    /// A node per scan at its current pose, an edge per step and per loop.
+    graph: PoseGraph,
     along_m: Vec<f64>,
-    edges: Vec<GraphEdge>,
     keyframes: Keyframes,
     loops: Vec<(LoopClosure, usize)>,
     /// Whether a step since the last loop closed was not registered.
     lost: bool,
     /// The path length at the last loop closed, metres.
     closed_at_m: f64,
+    /// Whether loop edges were added since the graph was last solved ...
+    unsolved: bool,
+    /// ... and whether one of them disagreed with the poses (see
+    /// [`SOLVE_GATE`]).
+    disagree: bool,
+    /// Times the graph was solved.
+    solves: usize,
 }
+
+/// A loop edge whose squared Mahalanobis residual at the current poses is
+/// at most this (three degrees of freedom, 95 %) agrees with them within
+/// its noise: solving the graph for it would move the poses by less than
+/// the match measures, so the solve waits for a loop that disagrees (or
+/// the log's end). Revisits of ground already closed then cost nothing,
+/// and the solves grow with the corrections, not with the revisits.
+const SOLVE_GATE: f64 = 7.81;
 
 /// The least spread of a step's or a loop's measured relative pose, one
 /// σ: registration's posterior can claim less than a laser's range noise
@@ -377,13 +395,15 @@ impl<'c> Mapper<'c> {
             config,
             recent: VecDeque::new(),
             first: 0,
-            poses: Vec::new(),
+            graph: PoseGraph::new(Vec::new()),
             along_m: Vec::new(),
-            edges: Vec::new(),
             keyframes: Keyframes::new()?,
             loops: Vec::new(),
             lost: false,
             closed_at_m: 0.0,
+            unsolved: false,
+            disagree: false,
+            solves: 0,
         })
     }
 
@@ -398,7 +418,7 @@ impl<'c> Mapper<'c> {
         let spacing = config.register.spacing_m.max(config.field_resolution_m);
         self.remember(k, thin_points(&points, spacing));
         if k == 0 {
-            self.poses.push(Pose2::IDENTITY);
+            self.graph.poses.push(Pose2::IDENTITY);
             self.along_m.push(0.0);
             return Ok(true);
         }
@@ -415,7 +435,10 @@ impl<'c> Mapper<'c> {
         if every > 0 {
             self.file_keyframe(k)?;
             if k > 0 && k % every == 0 && self.close_loops(k)? {
-                self.optimise();
+                self.unsolved = true;
+                if self.disagree {
+                    self.optimise();
+                }
             }
         }
         Ok(())
@@ -423,16 +446,19 @@ impl<'c> Mapper<'c> {
 
     /// The registered log: `meta` with the final poses, the loops, and
     /// the graph without the loop edges it dropped.
-    fn finish(self, mut meta: Vec<ScanPose>) -> RegisteredLog {
-        for (s, p) in meta.iter_mut().zip(&self.poses) {
+    fn finish(mut self, mut meta: Vec<ScanPose>) -> RegisteredLog {
+        if self.unsolved {
+            self.optimise();
+        }
+        for (s, p) in meta.iter_mut().zip(&self.graph.poses) {
             s.pose = *p;
         }
         let dropped: Vec<usize> = (self.loops.iter())
             .filter(|(l, _)| !l.kept)
             .map(|&(_, e)| e)
             .collect();
-        let mut graph = PoseGraph::new(self.poses);
-        graph.edges = (self.edges.into_iter().enumerate())
+        let mut graph = self.graph;
+        graph.edges = (graph.edges.into_iter().enumerate())
             .filter(|(e, _)| !dropped.contains(e))
             .map(|(_, edge)| edge)
             .collect();
@@ -441,6 +467,7 @@ impl<'c> Mapper<'c> {
             loops: self.loops.into_iter().map(|(l, _)| l).collect(),
             loop_searches: self.keyframes.searches,
             keyframes: self.keyframes.len(),
+            solves: self.solves,
             graph,
         }
     }
@@ -456,7 +483,7 @@ impl<'c> Mapper<'c> {
             .flat_map(|k| {
                 self.points(k)
                     .iter()
-                    .map(move |p| self.poses[k].transform_point(*p))
+                    .map(move |p| self.graph.poses[k].transform_point(*p))
             })
             .collect();
         self.field_of(&points)
@@ -484,7 +511,7 @@ impl<'c> Mapper<'c> {
     /// The poses and path lengths so far.
     fn track(&self) -> Track<'_> {
         Track {
-            poses: &self.poses,
+            poses: &self.graph.poses,
             along_m: &self.along_m,
         }
     }
@@ -511,10 +538,10 @@ impl<'c> Mapper<'c> {
 
     /// The endpoints of recent scans `range` in scan `j`'s frame.
     fn points_in_frame(&self, j: usize, range: std::ops::Range<usize>) -> Vec<Point2> {
-        let to_j = self.poses[j].inverse();
+        let to_j = self.graph.poses[j].inverse();
         range
             .flat_map(|m| {
-                let rel = to_j * self.poses[m];
+                let rel = to_j * self.graph.poses[m];
                 self.points(m).iter().map(move |p| rel.transform_point(*p))
             })
             .collect()
@@ -530,7 +557,7 @@ impl<'c> Mapper<'c> {
         covariance: &Matrix3<f64>,
         kernel: Kernel,
     ) -> GraphEdge {
-        let (s, c) = self.poses[i].theta.sin_cos();
+        let (s, c) = self.graph.poses[i].theta.sin_cos();
         let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
         let floor = Matrix3::from_diagonal(&Vector3::new(
             EDGE_FLOOR_M.powi(2),
@@ -544,7 +571,7 @@ impl<'c> Mapper<'c> {
         let mut e = MeasuredEdge {
             i,
             j,
-            z: self.poses[i].between(pose_j),
+            z: self.graph.poses[i].between(pose_j),
             info: 0.5 * (info + info.transpose()),
         }
         .to_graph();
@@ -556,14 +583,14 @@ impl<'c> Mapper<'c> {
     /// previous one, with `odometry` as the prior.
     fn place(&mut self, k: usize, odometry: Option<&Pose2>, label: &dyn Fn() -> String) -> Result<bool> {
         let config = self.config;
-        let prior = step_prior(&self.poses[k - 1], odometry, config);
+        let prior = step_prior(&self.graph.poses[k - 1], odometry, config);
         let field = self.field(k.saturating_sub(config.local_scans)..k);
         let reg = register(&field, self.points(k), &prior, &config.register).with_context(label)?;
-        self.poses.push(reg.pose);
-        let step = self.poses[k - 1].between(&reg.pose).translation().norm();
+        self.graph.poses.push(reg.pose);
+        let step = self.graph.poses[k - 1].between(&reg.pose).translation().norm();
         self.along_m.push(self.along_m[k - 1] + step);
         let edge = self.edge(k - 1, k, &reg.pose, &reg.covariance, Kernel::Squared);
-        self.edges.push(edge);
+        self.graph.edges.push(edge);
         Ok(reg.accepted)
     }
 
@@ -582,7 +609,7 @@ impl<'c> Mapper<'c> {
             Vec::new()
         };
         let track = Track {
-            poses: &self.poses,
+            poses: &self.graph.poses,
             along_m: &self.along_m,
         };
         let scan = &self.recent[k - self.first];
@@ -602,14 +629,16 @@ impl<'c> Mapper<'c> {
                 &reg.covariance,
                 Kernel::Cauchy { c: 1.0 },
             );
-            self.edges.push(edge);
+            let chi2 = edge.chi2(&self.graph.poses[f.from], &self.graph.poses[f.to]);
+            self.disagree |= chi2 > SOLVE_GATE;
+            self.graph.edges.push(edge);
             let closure = LoopClosure {
                 from: f.from,
                 to: f.to,
                 recognised: f.recognised,
                 kept: true,
             };
-            self.loops.push((closure, self.edges.len() - 1));
+            self.loops.push((closure, self.graph.edges.len() - 1));
         }
         Ok(!found.is_empty())
     }
@@ -617,30 +646,31 @@ impl<'c> Mapper<'c> {
     /// Solves the pose graph of the scans so far, drops the loop edges the
     /// solution contradicts and solves again; the poses follow.
     fn optimise(&mut self) {
-        let mut graph = PoseGraph::new(self.poses.clone());
-        graph.edges.clone_from(&self.edges);
         let config = OptimiseConfig {
             max_iterations: 20,
             ..OptimiseConfig::default()
         };
-        if optimise(&mut graph, &config).is_err() {
+        self.solves += 1;
+        // A graph that cannot be solved keeps its poses.
+        if optimise(&mut self.graph, &config).is_err() {
             return;
         }
         let mut dropped = false;
+        let graph = &mut self.graph;
         for (closure, e) in self.loops.iter_mut().filter(|(l, _)| l.kept) {
             let edge = &graph.edges[*e];
             if edge.chi2(&graph.poses[edge.from], &graph.poses[edge.to]) > EDGE_GATE {
                 closure.kept = false;
                 // Kept in place (indices stay valid), with no weight.
                 graph.edges[*e].information = [[1e-12, 0.0, 0.0], [0.0, 1e-12, 0.0], [0.0, 0.0, 1e-12]];
-                self.edges[*e].information = graph.edges[*e].information;
                 dropped = true;
             }
         }
-        if dropped && optimise(&mut graph, &config).is_err() {
+        if dropped && optimise(graph, &config).is_err() {
             return;
         }
-        self.poses = graph.poses;
+        self.unsolved = false;
+        self.disagree = false;
         self.keyframes.forget_pending();
     }
 }
