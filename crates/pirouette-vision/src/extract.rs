@@ -204,11 +204,29 @@ impl RopExtractor {
         )]
         let mut rop = Rop::covering(lo, hi, self.config.bin_width_rad, self.max_range_m)
             .expect("bin width checked and the view span is finite");
-        // Each column's floor point at its boundary (or its farthest floor
-        // point when clear).
-        let points: Vec<Option<BoundaryPoint>> = boundaries
-            .iter()
-            .enumerate()
+        // Each column's floor point at its boundary, filed with the floor
+        // seen below it.
+        let points = self.boundary_points(boundaries);
+        self.insert_points(&mut rop, &points);
+        // How far each bin's floor is seen.
+        let reach = self.floor_reach(boundaries, rop.len());
+        // Bins narrower than a column between columns on one surface.
+        join_neighbours(&mut rop, &points);
+        filter::apply(&mut rop, self.config.filter);
+        // A bin that sees a surface is seen as far as that surface; one with
+        // nothing in sight only as far as its floor was seen.
+        for ((free, &range), r) in rop.free_m.iter_mut().zip(&rop.range_m).zip(reach) {
+            if range == f32::INFINITY && r < self.max_range_m {
+                *free = r;
+            }
+        }
+        rop
+    }
+
+    /// Each column's floor point at its boundary (or its farthest floor
+    /// point when clear).
+    fn boundary_points(&self, boundaries: &[ColumnBoundary]) -> Vec<Option<BoundaryPoint>> {
+        (boundaries.iter().enumerate())
             .map(|(u, b)| match *b {
                 ColumnBoundary::Obstacle { row, colour } => {
                     let p = self
@@ -232,12 +250,16 @@ impl RopExtractor {
                 }
                 ColumnBoundary::NoFloor => None,
             })
-            .collect();
+            .collect()
+    }
+
+    /// Files each column's point in `rop`, and the floor below it as seen
+    /// and free: the bins between the column's bottom pixel and its
+    /// boundary.
+    fn insert_points(&self, rop: &mut Rop, points: &[Option<BoundaryPoint>]) {
         for (u, p) in points.iter().enumerate() {
             let Some(p) = p else { continue };
             rop.insert(p.bearing_rad, p.range_m, p.colour);
-            // The floor below the boundary is seen and free: bins between
-            // the column's bottom pixel and its boundary are seen.
             if let Some(bottom) = self.bottom_bearing[u] {
                 let (a, b) = (bottom.min(p.bearing_rad), bottom.max(p.bearing_rad));
                 if let (Some(i0), Some(i1)) = (rop.bin_of(a), rop.bin_of(b)) {
@@ -247,11 +269,14 @@ impl RopExtractor {
                 }
             }
         }
-        // How far each bin's floor is seen: a column's floor below its
-        // boundary passes through bins on the way, and at the sides of the
-        // view its near floor lies at wider bearings than its far floor. A
-        // bin with nothing in sight is free only that far.
-        let mut reach = vec![0f32; rop.len()];
+    }
+
+    /// How far each of `bins` bins' floor is seen: a column's floor below
+    /// its boundary passes through bins on the way, and at the sides of
+    /// the view its near floor lies at wider bearings than its far floor.
+    /// A bin with nothing in sight is free only that far.
+    fn floor_reach(&self, boundaries: &[ColumnBoundary], bins: usize) -> Vec<f32> {
+        let mut reach = vec![0f32; bins];
         for (crossings, b) in self.crossings.iter().zip(boundaries) {
             let below = match *b {
                 ColumnBoundary::Obstacle { row, .. } => row,
@@ -263,44 +288,7 @@ impl RopExtractor {
                 *r = r.max(c.range_m);
             }
         }
-        // Join neighbouring columns that see the same surface, so that bins
-        // narrower than a column still get a range.
-        for pair in points.windows(2) {
-            let (Some(a), Some(b)) = (pair[0], pair[1]) else {
-                continue;
-            };
-            if !(a.obstacle && b.obstacle) || (a.range_m - b.range_m).abs() > 0.05 * a.range_m.min(b.range_m)
-            {
-                continue;
-            }
-            let (first, last) = if a.bearing_rad <= b.bearing_rad {
-                (a, b)
-            } else {
-                (b, a)
-            };
-            let Some(i0) = rop.bin_of(first.bearing_rad) else {
-                continue;
-            };
-            let Some(i1) = rop.bin_of(last.bearing_rad) else {
-                continue;
-            };
-            for i in i0 + 1..i1 {
-                let c = rop.bin_centre_rad(i);
-                let t = ((c - first.bearing_rad) / (last.bearing_rad - first.bearing_rad)) as f32;
-                let r = first.range_m + t * (last.range_m - first.range_m);
-                let colour = if t < 0.5 { first.colour } else { last.colour };
-                rop.insert(c, r, colour);
-            }
-        }
-        filter::apply(&mut rop, self.config.filter);
-        // A bin that sees a surface is seen as far as that surface; one with
-        // nothing in sight only as far as its floor was seen.
-        for ((free, &range), r) in rop.free_m.iter_mut().zip(&rop.range_m).zip(reach) {
-            if range == f32::INFINITY && r < self.max_range_m {
-                *free = r;
-            }
-        }
-        rop
+        reach
     }
 
     /// The floor mask (255 floor, 0 not floor) implied by the boundaries.
@@ -326,7 +314,16 @@ impl RopExtractor {
         let mut out = vec![ColumnBoundary::NoFloor; m];
         let mut lanes = Lanes::new(m);
         let classifier = self.classifier(sigma);
-        for (u, (slot, seed)) in out.iter_mut().zip(self.seeds(px, &classifier)).enumerate() {
+        for (u, (slot, seed)) in out
+            .iter_mut()
+            .zip(seed::seeds(
+                px,
+                (self.width, self.height),
+                &self.top_floor,
+                &classifier,
+            ))
+            .enumerate()
+        {
             match seed {
                 Seed::NoFloor => {}
                 Seed::Clear { top_row } => *slot = ColumnBoundary::Clear { top_row },
@@ -360,6 +357,12 @@ impl RopExtractor {
         }
     }
 
+    /// The cues that decide obstacle bases in image `px`.
+    #[cfg(test)]
+    fn cues<'a>(&'a self, px: &'a [u8]) -> decide::Cues<'a> {
+        decide::Cues::new(self, px)
+    }
+
     /// The floor test for an image whose noise (of a three-pixel average)
     /// is `sigma`.
     fn classifier(&self, sigma: f32) -> Classifier {
@@ -367,6 +370,39 @@ impl RopExtractor {
             noise: self.config.noise_sigmas * sigma,
             brightness_step: self.config.min_brightness_step,
             chroma_step: self.config.min_chroma_step,
+        }
+    }
+}
+
+/// Joins neighbouring columns that see the same surface (both obstacles,
+/// ranges within 5 %), so that bins narrower than a column still get a
+/// range: those between them take the range interpolated along the
+/// bearing, and the colour of the column nearer in bearing.
+fn join_neighbours(rop: &mut Rop, points: &[Option<BoundaryPoint>]) {
+    for pair in points.windows(2) {
+        let (Some(a), Some(b)) = (pair[0], pair[1]) else {
+            continue;
+        };
+        if !(a.obstacle && b.obstacle) || (a.range_m - b.range_m).abs() > 0.05 * a.range_m.min(b.range_m) {
+            continue;
+        }
+        let (first, last) = if a.bearing_rad <= b.bearing_rad {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let Some(i0) = rop.bin_of(first.bearing_rad) else {
+            continue;
+        };
+        let Some(i1) = rop.bin_of(last.bearing_rad) else {
+            continue;
+        };
+        for i in i0 + 1..i1 {
+            let c = rop.bin_centre_rad(i);
+            let t = ((c - first.bearing_rad) / (last.bearing_rad - first.bearing_rad)) as f32;
+            let r = first.range_m + t * (last.range_m - first.range_m);
+            let colour = if t < 0.5 { first.colour } else { last.colour };
+            rop.insert(c, r, colour);
         }
     }
 }

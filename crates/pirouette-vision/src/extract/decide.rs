@@ -5,6 +5,7 @@
 use super::seed::small_median;
 use super::texture::{texture_energy, TEXTURE_MIN_ROWS, TEXTURE_ROWS};
 use super::RopExtractor;
+use crate::config::VisionConfig;
 use crate::scan::{smoothed, Candidate, Classifier, FloorTrack, SQRT_3};
 use crate::ColumnBoundary;
 use pirouette_profile::ColourTag;
@@ -12,29 +13,51 @@ use pirouette_profile::ColourTag;
 /// Rows each side of a boundary used to measure floor and obstacle levels.
 const LEVEL_OFFSET: u32 = 3;
 
-impl RopExtractor {
+/// One image as the cues that decide obstacle bases read it: its pixels
+/// and size, the rows an obstacle of the least height spans at each
+/// pixel, and the settings.
+#[derive(Clone, Copy)]
+pub(super) struct Cues<'a> {
+    px: &'a [u8],
+    width: u32,
+    height: u32,
+    run_rows: &'a [u16],
+    config: &'a VisionConfig,
+}
+
+impl<'a> Cues<'a> {
+    /// The cues of image `px` (RGB, row-major) as `ex` sees it.
+    pub(super) fn new(ex: &'a RopExtractor, px: &'a [u8]) -> Self {
+        Self {
+            px,
+            width: ex.width,
+            height: ex.height,
+            run_rows: &ex.run_rows,
+            config: &ex.config,
+        }
+    }
+
     /// Whether a candidate whose run has been scanned, `off` of its rows
     /// not floor, is the base of an obstacle, and if so the boundary: the
     /// run above it must be as tall as an obstacle would be there, and the
     /// column itself must show it.
     pub(super) fn decide(
         &self,
-        px: &[u8],
         u: u32,
         c: &Candidate,
         off: u32,
         classifier: &Classifier,
     ) -> Option<ColumnBoundary> {
         if c.edge {
-            return Some(self.refine(px, u, c.row, c.floor, c.trend));
+            return Some(self.refine(u, c.row, c.floor, c.trend));
         }
         let span = c.row - c.lo + 1;
         // The column itself, not just its neighbours averaged into it, must
         // show the obstacle: beside an obstacle's side edge a third of an
         // obstacle pixel is enough to trip the test.
         (off as f32 >= self.config.run_fraction * span as f32
-            && self.column_confirms(px, u, c.row, &c.floor, classifier))
-        .then(|| self.refine(px, u, c.row, c.floor, c.trend))
+            && self.column_confirms(u, c.row, &c.floor, classifier))
+        .then(|| self.refine(u, c.row, c.floor, c.trend))
     }
 
     /// Whether a sharp step at row `v` of column `u` (a floor pixel no
@@ -42,14 +65,8 @@ impl RopExtractor {
     /// following the floor from `coasted` (the track after coasting over
     /// row `v`) with the edge test's tolerances, the run above must stay off
     /// the floor as an obstacle's would, and the column itself must show it.
-    pub(super) fn edge_confirms(
-        &self,
-        px: &[u8],
-        u: u32,
-        v: u32,
-        coasted: FloorTrack,
-        edge: &Classifier,
-    ) -> bool {
+    pub(super) fn edge_confirms(&self, u: u32, v: u32, coasted: FloorTrack, edge: &Classifier) -> bool {
+        let px = self.px;
         let run = self.run_rows[(v * self.width + u) as usize].max(1) as u32;
         let lo = (v + 1).saturating_sub(run);
         let mut ahead = coasted;
@@ -62,7 +79,7 @@ impl RopExtractor {
         }
         let pred: [f32; 3] = std::array::from_fn(|c| coasted.level[c]);
         off as f32 >= self.config.run_fraction * (v - lo + 1) as f32
-            && self.column_confirms(px, u, v, &pred, edge)
+            && self.column_confirms(u, v, &pred, edge)
     }
 
     /// Whether a sharp step of brightness alone at row `v` of column `u` is
@@ -85,13 +102,13 @@ impl RopExtractor {
     /// are the speck, not the floor.
     pub(super) fn bright_edge_confirms(
         &self,
-        px: &[u8],
         u: u32,
         v: u32,
         (both, ratio): (&Classifier, f32),
         grey_sigma: f32,
         (followed, floor_test): (&[f32; 3], &Classifier),
     ) -> bool {
+        let px = self.px;
         let (m, n) = (self.width, self.height);
         // The floor's level and texture are judged over two windows below
         // the step: nearer the image's bottom there is too little floor.
@@ -125,7 +142,7 @@ impl RopExtractor {
             left -= 1;
             off += !both.is_floor(&smoothed(px, m, u, w), &floor) as u32;
         }
-        if (off as f32) < needed || !self.column_confirms(px, u, v, &floor, both) {
+        if (off as f32) < needed || !self.column_confirms(u, v, &floor, both) {
             return false;
         }
         // The run is a plateau too: its rows keep to their own median
@@ -170,14 +187,8 @@ impl RopExtractor {
     /// Whether the raw pixels of column `u` just above row `v` (two of the
     /// three rows `v−1 ..= v−3`, or all that exist) leave the floor `pred`,
     /// with the noise allowance of a single pixel.
-    pub(super) fn column_confirms(
-        &self,
-        px: &[u8],
-        u: u32,
-        v: u32,
-        pred: &[f32; 3],
-        classifier: &Classifier,
-    ) -> bool {
+    pub(super) fn column_confirms(&self, u: u32, v: u32, pred: &[f32; 3], classifier: &Classifier) -> bool {
+        let px = self.px;
         let single = Classifier {
             noise: classifier.noise * SQRT_3,
             ..*classifier
@@ -203,14 +214,8 @@ impl RopExtractor {
     /// track's change per row there: floor that darkens toward a wall's
     /// base (or brightens toward the horizon) would otherwise count as a
     /// share of the obstacle and put the edge low, the range short.
-    pub(super) fn refine(
-        &self,
-        px: &[u8],
-        u: u32,
-        v: u32,
-        floor_ref: [f32; 3],
-        trend: [f32; 3],
-    ) -> ColumnBoundary {
+    pub(super) fn refine(&self, u: u32, v: u32, floor_ref: [f32; 3], trend: [f32; 3]) -> ColumnBoundary {
+        let px = self.px;
         let (m, n) = (self.width, self.height);
         let pix = |w: u32| smoothed(px, m, u, w);
         let above = (1..=2).filter_map(|k| v.checked_sub(LEVEL_OFFSET + k - 1));

@@ -2,6 +2,7 @@
 //! [`crate::scan`]): the state the rows share and one method per step of a
 //! row.
 
+use super::decide::Cues;
 use super::RopExtractor;
 use crate::scan::{Candidate, Candidates, Classifier, Lanes};
 use crate::ColumnBoundary;
@@ -12,6 +13,7 @@ use std::ops::Range;
 pub(super) struct RowScan<'a> {
     ex: &'a RopExtractor,
     px: &'a [u8],
+    cues: Cues<'a>,
     /// The boundary found in each column so far.
     pub out: Vec<ColumnBoundary>,
     /// The floor models of the columns still scanned.
@@ -50,6 +52,7 @@ impl<'a> RowScan<'a> {
         Self {
             ex,
             px,
+            cues: Cues::new(ex, px),
             out,
             lanes,
             edge_classifier: classifier.scaled(config.edge_fraction),
@@ -111,7 +114,7 @@ impl<'a> RowScan<'a> {
     pub fn queue_edges(&mut self, v: u32, cols: Range<usize>) {
         let Self {
             ex,
-            px,
+            cues,
             lanes,
             candidates,
             past_top,
@@ -122,24 +125,17 @@ impl<'a> RowScan<'a> {
             grey_sigma,
             ..
         } = self;
-        let (ex, px, lanes, past_top) = (*ex, *px, &*lanes, &*past_top);
+        let (ex, cues, lanes, past_top) = (*ex, *cues, &*lanes, &*past_top);
         let config = &ex.config;
         let chroma_edges = lanes.edge_columns(cols.clone()).filter(|&u| {
             !past_top[u]
-                && ex.edge_confirms(
-                    px,
-                    u as u32,
-                    v,
-                    lanes.coasted(u, config.trend_rate),
-                    edge_classifier,
-                )
+                && cues.edge_confirms(u as u32, v, lanes.coasted(u, config.trend_rate), edge_classifier)
         });
         // A step of brightness alone, tested with its tolerances and
         // texture ratio.
         let brightness_step = |u: usize, test: (&Classifier, f32)| {
             !past_top[u]
-                && ex.bright_edge_confirms(
-                    px,
+                && cues.bright_edge_confirms(
                     u as u32,
                     v,
                     test,
@@ -182,7 +178,7 @@ impl<'a> RowScan<'a> {
             .complete_row(v as usize, |u| lanes.off_rows(u), &mut self.ready);
         for &u in &self.ready {
             while let Some((c, off)) = self.candidates.decidable(u) {
-                if let Some(b) = self.ex.decide(self.px, u as u32, &c, off, &self.classifier) {
+                if let Some(b) = self.cues.decide(u as u32, &c, off, &self.classifier) {
                     self.out[u] = b;
                     self.lanes.stop(u);
                     self.candidates.clear(u);

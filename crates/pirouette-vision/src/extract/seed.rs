@@ -2,7 +2,6 @@
 //! its trend pooled with its neighbours', and a speck in the seed rows
 //! replaced from both sides.
 
-use super::RopExtractor;
 use crate::scan::{smoothed, Classifier, FloorTrack};
 
 /// Rows of the seed at the bottom of each column.
@@ -13,7 +12,7 @@ pub(super) const SEED_ROWS: u32 = 6;
 const SEED_NEIGHBOUR: usize = 8;
 
 /// How far out, columns, a seed is compared with seeds on both sides
-/// after its nearest neighbours (see [`RopExtractor::seeds`]).
+/// after its nearest neighbours (see [`seeds`]).
 const WIDE_SPECK_SCALES: [usize; 2] = [2 * SEED_NEIGHBOUR, 4 * SEED_NEIGHBOUR];
 
 /// Every how many columns the neighbours' seed trends are sampled for
@@ -158,128 +157,144 @@ pub(super) enum Seed {
     Track(FloorTrack),
 }
 
-impl RopExtractor {
-    /// Each column's start: a line through its own bottom rows, unless that
-    /// seed is not floor against its neighbours' on both sides: then a
-    /// speck of lint or a reflection lies in its seed rows, and the column
-    /// starts from their mean instead. The neighbours are the seeds
-    /// [`SEED_NEIGHBOUR`] columns either side; near the image's edge the
-    /// missing side is the line through the two inward ones (that far and
-    /// twice as far), so that the dark corners of vignetting pass. A clean
-    /// column next to a speck still agrees with its other side.
-    ///
-    /// Lint close to the camera is wider than that reach: the neighbours lie
-    /// on it too and agree, or straddle its edge and disagree with each
-    /// other. The seed is then compared with seeds farther out
-    /// ([`WIDE_SPECK_SCALES`]), on both sides only, that agree with each
-    /// other; where they do not (a dark floor darkening into a vignetted
-    /// corner changes by more than the tolerance that far) and the seed is
-    /// not floor to the midpoint between them, with the median seed of the
-    /// window between them, when that is floor to one of them.
-    /// A real obstacle at the bottom narrower than twice the
-    /// farthest scale is then followed as one from the row above the seed,
-    /// where before its colour was taken for the floor's.
-    pub(super) fn seeds(&self, px: &[u8], classifier: &Classifier) -> Vec<Seed> {
-        let n = self.height;
-        let own: Vec<Seed> = self
-            .top_floor
-            .iter()
-            .enumerate()
-            .map(|(u, &top)| {
-                if top >= n {
-                    return Seed::NoFloor;
-                }
-                let seed_rows = SEED_ROWS.min(n - top);
-                if seed_rows == n - top {
-                    return Seed::Clear { top_row: top };
-                }
-                let mut rows = [[0f32; 3]; SEED_ROWS as usize];
-                for (s, v) in rows.iter_mut().zip((n - seed_rows..n).rev()) {
-                    *s = smoothed(px, self.width, u as u32, v);
-                }
-                Seed::Track(FloorTrack::seed(&rows))
-            })
-            .collect();
-        let own = pooled_trends(&own);
-        let track = |j: Option<usize>| match j.and_then(|j| own.get(j)) {
-            Some(Seed::Track(t)) => Some(*t),
-            _ => None,
-        };
-        // `a + f·(b − a)` channel by channel, for level and trend.
-        let line = |a: FloorTrack, b: FloorTrack, f: f32| FloorTrack {
-            level: std::array::from_fn(|c| a.level[c] + f * (b.level[c] - a.level[c])),
-            trend: std::array::from_fn(|c| a.trend[c] + f * (b.trend[c] - a.trend[c])),
-        };
-        let k = SEED_NEIGHBOUR;
-        (0..own.len())
-            .map(|u| {
-                let Seed::Track(t) = own[u] else {
-                    return own[u];
-                };
-                let (near_l, near_r) = (track(u.checked_sub(k)), track(Some(u + k)));
-                let far = |j: Option<usize>, near: FloorTrack| track(j).map(|f| line(near, f, -1.0));
-                // Both sides, or near the image's edge one side and the
-                // line through the two inward seeds; whether both sides are
-                // seeds of their own.
-                let (sides, both) = match (near_l, near_r) {
-                    (Some(l), Some(r)) => ([l, r], true),
-                    (None, Some(r)) => match far(Some(u + 2 * k), r) {
-                        Some(e) => ([e, r], false),
-                        None => return own[u],
-                    },
-                    (Some(l), None) => match far(u.checked_sub(2 * k), l) {
-                        Some(e) => ([l, e], false),
-                        None => return own[u],
-                    },
-                    (None, None) => return own[u],
-                };
-                // Two sides that disagree with each other cannot both be
-                // floor: the edge of a wider speck, to be judged from
-                // farther out.
-                let sides_agree = || !both || classifier.is_floor(&sides[0].level, &sides[1].level);
-                if !sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) && sides_agree() {
-                    return Seed::Track(line(sides[0], sides[1], 0.5));
-                }
-                // A wider speck (lint close to the camera spans tens of
-                // columns): seeds farther out on both sides that agree with
-                // each other but not with this one.
-                for scale in WIDE_SPECK_SCALES {
-                    // Both sides only: near the image's edge a line
-                    // extrapolated that far misses the dark corners of
-                    // vignetting.
-                    let (Some(l), Some(r)) = (track(u.checked_sub(scale)), track(Some(u + scale))) else {
-                        break;
-                    };
-                    // (The floor's usual case, agreeing with `l`, first.)
-                    if classifier.is_floor(&t.level, &l.level) || classifier.is_floor(&t.level, &r.level) {
-                        continue;
-                    }
-                    if classifier.is_floor(&l.level, &r.level) {
-                        return Seed::Track(line(l, r, 0.5));
-                    }
-                    // Sides that disagree with each other: the floor may
-                    // darken across the window into a vignetted corner by
-                    // more than the tolerance. A seed on the line between
-                    // them is that floor. Otherwise the window's median
-                    // seed (by brightness) is the floor's where the speck
-                    // covers less than half of it; it must be floor to one
-                    // side at least (not a column on the speck's edge).
-                    if classifier.is_floor(&t.level, &line(l, r, 0.5).level) {
-                        continue;
-                    }
-                    if let Some(m) = median_seed(&own[u - scale..=u + scale]) {
-                        if !classifier.is_floor(&t.level, &m.level)
-                            && (classifier.is_floor(&m.level, &l.level)
-                                || classifier.is_floor(&m.level, &r.level))
-                        {
-                            return Seed::Track(m);
-                        }
-                    }
-                }
-                own[u]
-            })
-            .collect()
+/// Each column's start: a line through its own bottom rows, unless that
+/// seed is not floor against its neighbours' on both sides: then a
+/// speck of lint or a reflection lies in its seed rows, and the column
+/// starts from their mean instead. The neighbours are the seeds
+/// [`SEED_NEIGHBOUR`] columns either side; near the image's edge the
+/// missing side is the line through the two inward ones (that far and
+/// twice as far), so that the dark corners of vignetting pass. A clean
+/// column next to a speck still agrees with its other side.
+///
+/// Lint close to the camera is wider than that reach: the neighbours lie
+/// on it too and agree, or straddle its edge and disagree with each
+/// other. The seed is then compared with seeds farther out
+/// ([`WIDE_SPECK_SCALES`]), on both sides only, that agree with each
+/// other; where they do not (a dark floor darkening into a vignetted
+/// corner changes by more than the tolerance that far) and the seed is
+/// not floor to the midpoint between them, with the median seed of the
+/// window between them, when that is floor to one of them.
+/// A real obstacle at the bottom narrower than twice the
+/// farthest scale is then followed as one from the row above the seed,
+/// where before its colour was taken for the floor's.
+pub(super) fn seeds(
+    px: &[u8],
+    (width, height): (u32, u32),
+    top_floor: &[u32],
+    classifier: &Classifier,
+) -> Vec<Seed> {
+    let own = pooled_trends(&own_seeds(px, (width, height), top_floor));
+    (0..own.len()).map(|u| unspecked(&own, u, classifier)).collect()
+}
+
+/// Each column's seed from its own bottom rows alone (`top_floor`: each
+/// column's topmost floor row, the image's height where it has none).
+fn own_seeds(px: &[u8], (width, n): (u32, u32), top_floor: &[u32]) -> Vec<Seed> {
+    (top_floor.iter().enumerate())
+        .map(|(u, &top)| {
+            if top >= n {
+                return Seed::NoFloor;
+            }
+            let seed_rows = SEED_ROWS.min(n - top);
+            if seed_rows == n - top {
+                return Seed::Clear { top_row: top };
+            }
+            let mut rows = [[0f32; 3]; SEED_ROWS as usize];
+            for (s, v) in rows.iter_mut().zip((n - seed_rows..n).rev()) {
+                *s = smoothed(px, width, u as u32, v);
+            }
+            Seed::Track(FloorTrack::seed(&rows))
+        })
+        .collect()
+}
+
+/// Column `j`'s seed line, where it has one.
+fn track_at(own: &[Seed], j: Option<usize>) -> Option<FloorTrack> {
+    match j.and_then(|j| own.get(j)) {
+        Some(Seed::Track(t)) => Some(*t),
+        _ => None,
     }
+}
+
+/// `a + f·(b − a)` channel by channel, for level and trend.
+fn line(a: FloorTrack, b: FloorTrack, f: f32) -> FloorTrack {
+    FloorTrack {
+        level: std::array::from_fn(|c| a.level[c] + f * (b.level[c] - a.level[c])),
+        trend: std::array::from_fn(|c| a.trend[c] + f * (b.trend[c] - a.trend[c])),
+    }
+}
+
+/// Column `u`'s seed, or where a speck lies in its seed rows, the floor's
+/// from its neighbours (see [`seeds`]).
+fn unspecked(own: &[Seed], u: usize, classifier: &Classifier) -> Seed {
+    let Seed::Track(t) = own[u] else {
+        return own[u];
+    };
+    let Some((sides, both)) = near_sides(own, u) else {
+        return own[u];
+    };
+    // Two sides that disagree with each other cannot both be floor: the
+    // edge of a wider speck, to be judged from farther out.
+    let sides_agree = || !both || classifier.is_floor(&sides[0].level, &sides[1].level);
+    if !sides.iter().any(|s| classifier.is_floor(&t.level, &s.level)) && sides_agree() {
+        return Seed::Track(line(sides[0], sides[1], 0.5));
+    }
+    wide_speck(own, u, &t, classifier).unwrap_or(own[u])
+}
+
+/// The seeds [`SEED_NEIGHBOUR`] columns either side of column `u`, or near
+/// the image's edge one side and the line through the two inward seeds;
+/// whether both sides are seeds of their own.
+fn near_sides(own: &[Seed], u: usize) -> Option<([FloorTrack; 2], bool)> {
+    let k = SEED_NEIGHBOUR;
+    let far = |j: Option<usize>, near: FloorTrack| track_at(own, j).map(|f| line(near, f, -1.0));
+    match (track_at(own, u.checked_sub(k)), track_at(own, Some(u + k))) {
+        (Some(l), Some(r)) => Some(([l, r], true)),
+        (None, Some(r)) => far(Some(u + 2 * k), r).map(|e| ([e, r], false)),
+        (Some(l), None) => far(u.checked_sub(2 * k), l).map(|e| ([l, e], false)),
+        (None, None) => None,
+    }
+}
+
+/// The floor's seed for column `u` (seed line `t`) under a wider speck
+/// (lint close to the camera spans tens of columns): from seeds farther
+/// out on both sides ([`WIDE_SPECK_SCALES`]) that agree with each other
+/// but not with this one.
+fn wide_speck(own: &[Seed], u: usize, t: &FloorTrack, classifier: &Classifier) -> Option<Seed> {
+    for scale in WIDE_SPECK_SCALES {
+        // Both sides only: near the image's edge a line extrapolated that
+        // far misses the dark corners of vignetting.
+        let (Some(l), Some(r)) = (
+            track_at(own, u.checked_sub(scale)),
+            track_at(own, Some(u + scale)),
+        ) else {
+            break;
+        };
+        // (The floor's usual case, agreeing with `l`, first.)
+        if classifier.is_floor(&t.level, &l.level) || classifier.is_floor(&t.level, &r.level) {
+            continue;
+        }
+        if classifier.is_floor(&l.level, &r.level) {
+            return Some(Seed::Track(line(l, r, 0.5)));
+        }
+        // Sides that disagree with each other: the floor may darken across
+        // the window into a vignetted corner by more than the tolerance. A
+        // seed on the line between them is that floor. Otherwise the
+        // window's median seed (by brightness) is the floor's where the
+        // speck covers less than half of it; it must be floor to one side
+        // at least (not a column on the speck's edge).
+        if classifier.is_floor(&t.level, &line(l, r, 0.5).level) {
+            continue;
+        }
+        if let Some(m) = median_seed(&own[u - scale..=u + scale]) {
+            if !classifier.is_floor(&t.level, &m.level)
+                && (classifier.is_floor(&m.level, &l.level) || classifier.is_floor(&m.level, &r.level))
+            {
+                return Some(Seed::Track(m));
+            }
+        }
+    }
+    None
 }
 
 #[cfg(test)]

@@ -421,10 +421,14 @@ fn the_floor_below_a_brightness_step_is_the_floor_followed() {
     let test = (&both, ex.config.texture_ratio);
     let speck_level = speck.map(|c| c as f32);
     // Following the floor, the step is no wall's base.
-    assert!(!ex.bright_edge_confirms(px, 156, 204, test, grey_sigma, (&floor, &classifier)));
+    assert!(!ex
+        .cues(px)
+        .bright_edge_confirms(156, 204, test, grey_sigma, (&floor, &classifier)));
     // Had the scan followed the speck, every other test would have
     // passed: the rows below are what rejects it.
-    assert!(ex.bright_edge_confirms(px, 156, 204, test, grey_sigma, (&speck_level, &classifier)));
+    assert!(ex
+        .cues(px)
+        .bright_edge_confirms(156, 204, test, grey_sigma, (&speck_level, &classifier)));
 }
 
 /// A dark floor in plain noise (σ 2.5 levels a channel at a level of

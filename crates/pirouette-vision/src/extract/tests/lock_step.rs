@@ -50,22 +50,21 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
                 })
                 .count();
             if off as f32 >= ex.config.run_fraction * (v - lo + 1) as f32
-                && ex.column_confirms(px, u, v, &pred, &classifier)
+                && ex.cues(px).column_confirms(u, v, &pred, &classifier)
             {
-                return ex.refine(px, u, v, pred, track.trend);
+                return ex.cues(px).refine(u, v, pred, track.trend);
             }
         } else if !close && close_below {
             let mut coasted = track;
             coasted.step(&p, false, rate, trend_rate);
-            if ex.edge_confirms(px, u, v, coasted, &edge) {
-                return ex.refine(px, u, v, pred, track.trend);
+            if ex.cues(px).edge_confirms(u, v, coasted, &edge) {
+                return ex.cues(px).refine(u, v, pred, track.trend);
             }
         } else if (close
             && !steady
             && steady_below
             && ex.config.texture_ratio > 0.0
-            && ex.bright_edge_confirms(
-                px,
+            && ex.cues(px).bright_edge_confirms(
                 u,
                 v,
                 (&both, ex.config.texture_ratio),
@@ -76,8 +75,7 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
                 && !faint_steady
                 && faint_below
                 && ex.config.faint_steps()
-                && ex.bright_edge_confirms(
-                    px,
+                && ex.cues(px).bright_edge_confirms(
                     u,
                     v,
                     (&faint, ex.config.faint_texture_ratio),
@@ -85,7 +83,7 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
                     (&pred, &classifier),
                 ))
         {
-            return ex.refine(px, u, v, pred, track.trend);
+            return ex.cues(px).refine(u, v, pred, track.trend);
         }
         track.step(&p, floor, rate, trend_rate);
         close_below = close;
@@ -181,7 +179,12 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
             let strong_only = no_faint.boundaries(&img).unwrap();
             for ex in [&plain, &no_faint, &textured] {
                 let lock_step = ex.boundaries(&img).unwrap();
-                let seeds = ex.seeds(px, &ex.classifier(sigma));
+                let seeds = super::super::seed::seeds(
+                    px,
+                    (ex.width, ex.height),
+                    &ex.top_floor,
+                    &ex.classifier(sigma),
+                );
                 for (u, found) in lock_step.iter().enumerate() {
                     assert_eq!(
                         *found,
