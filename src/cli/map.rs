@@ -9,7 +9,7 @@ use pirouette::geom::Pose2;
 use pirouette::grid::{GridConfig, RosMap};
 use pirouette::io::Motion;
 use pirouette::io::{map_names, write_map_dir, Dataset, PoseRecord};
-use pirouette::mapping::{progress_steps, MapConfig};
+use pirouette::mapping::{progress_steps, MapConfig, MapRun, SweepPose};
 use pirouette::pipeline::{self, Mapped, PipelineConfig, Stage, Swept};
 use std::path::{Path, PathBuf};
 
@@ -235,7 +235,25 @@ pub fn map(a: MapArgs) -> Result<()> {
         px * 1000.0,
         py * 1000.0
     )?;
-    for s in &mapped.map.sweeps {
+    // Where each sweep went, then the revisits the place index found.
+    report_sweeps(&mapped.map.sweeps)?;
+    report_revisits(&mapped.map)?;
+    let ros = RosMap::from_grid(&mapped.map.grid);
+    outln!(
+        "map {} × {} cells of {} cm written to {} (look at {})",
+        ros.width,
+        ros.height,
+        ros.resolution_m * 100.0,
+        a.out.display(),
+        a.out.join(map_names::PNG).display()
+    )?;
+    Ok(())
+}
+
+/// A line per sweep: its pose, how registration moved it from the
+/// command and how sure it is, and a look-alike pose it nearly took.
+fn report_sweeps(sweeps: &[SweepPose]) -> Result<()> {
+    for s in sweeps {
         match (&s.prior, &s.registration) {
             (Some(prior), Some(reg)) => {
                 let shift = prior.mean.between(&s.pose);
@@ -273,7 +291,12 @@ pub fn map(a: MapArgs) -> Result<()> {
             )?,
         }
     }
-    let revisits = &mapped.map.revisits;
+    Ok(())
+}
+
+/// The revisits the place index recognised, and those not kept.
+fn report_revisits(map: &MapRun) -> Result<()> {
+    let revisits = &map.revisits;
     if !revisits.is_empty() {
         let far = revisits.iter().filter(|r| r.beyond_reach).count();
         let registered = revisits.iter().filter(|r| r.registered).count();
@@ -285,8 +308,8 @@ pub fn map(a: MapArgs) -> Result<()> {
         for r in revisits.iter().filter(|r| !r.kept) {
             outln!(
                 "          sweep {} at the place of sweep {} (score {:.2}): {}",
-                mapped.map.sweeps[r.later].id,
-                mapped.map.sweeps[r.earlier].id,
+                map.sweeps[r.later].id,
+                map.sweeps[r.earlier].id,
                 r.score,
                 if r.registered {
                     "dropped, the other matches disagree"
@@ -296,15 +319,6 @@ pub fn map(a: MapArgs) -> Result<()> {
             )?;
         }
     }
-    let ros = RosMap::from_grid(&mapped.map.grid);
-    outln!(
-        "map {} × {} cells of {} cm written to {} (look at {})",
-        ros.width,
-        ros.height,
-        ros.resolution_m * 100.0,
-        a.out.display(),
-        a.out.join(map_names::PNG).display()
-    )?;
     Ok(())
 }
 

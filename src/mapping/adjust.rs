@@ -46,6 +46,31 @@ pub(super) fn adjust_jointly(
 /// other's maps, so the match looks near where they are.
 const PAIR_SHIFT_M: f64 = 0.05;
 
+/// Each sweep's own map (the field of what it alone saw, its frames as
+/// the heading chain placed them) and its endpoints, in its frame.
+fn own_maps(
+    placed: &[Placed],
+    sweeps: &[DatasetSweep],
+    input: &[Frame],
+    blind_m: f64,
+    config: &MapConfig,
+) -> Result<Vec<(LikelihoodField, Vec<Point2>)>> {
+    let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
+    (0..sweeps.len())
+        .into_par_iter()
+        .map(|s| -> Result<_> {
+            let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
+                .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
+                .collect();
+            let seen = seen_by(&frames, input, blind_m, config)?;
+            Ok((
+                field_in(&seen, None, config),
+                placed[s].points(&sweeps[s], &all(s), input, config),
+            ))
+        })
+        .collect()
+}
+
 /// The measured relative poses between every two sweeps within reach of
 /// each other: each sweep (its frames as the heading chain placed them)
 /// registered against what each other sweep alone saw, both ways. A
@@ -59,20 +84,7 @@ fn sweep_edges(
     config: &MapConfig,
     revisits: &mut [revisits::Revisit],
 ) -> Result<(Vec<graph::Edge>, Vec<Option<usize>>)> {
-    let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
-    let own: Vec<(LikelihoodField, Vec<Point2>)> = (0..sweeps.len())
-        .into_par_iter()
-        .map(|s| -> Result<_> {
-            let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
-                .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
-                .collect();
-            let seen = seen_by(&frames, input, blind_m, config)?;
-            Ok((
-                field_in(&seen, None, config),
-                placed[s].points(&sweeps[s], &all(s), input, config),
-            ))
-        })
-        .collect::<Result<_>>()?;
+    let own = own_maps(placed, sweeps, input, blind_m, config)?;
     // Sweeps farther apart than twice the registration's reach see nothing
     // in common.
     let reach = |s: usize| {

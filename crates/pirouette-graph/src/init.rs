@@ -92,13 +92,32 @@ pub fn chordal(graph: &mut PoseGraph) -> Result<(), GraphError> {
         .iter()
         .filter_map(|e| Some((unknown[e.from]?, unknown[e.to]?)))
         .collect();
+    // Headings first, then positions with them.
+    let theta = chordal_headings(graph, &unknown, &pairs)?;
+    let t = chordal_positions(graph, &unknown, &pairs, &theta)?;
+    for p in 0..n {
+        if let Some(u) = unknown[p] {
+            graph.poses[p] = Pose2::new(t[2 * u], t[2 * u + 1], theta[p]);
+        }
+    }
+    Ok(())
+}
+
+/// Every pose's heading by the chordal relaxation: for each edge,
+/// rⱼ − R(θ_z) rᵢ = 0 with r = (cos θ, sin θ), weight w = the heading
+/// information; the held pose's r is known (`unknown`: each pose's
+/// unknown's index, `None` for the held one; `pairs`: the edges'
+/// unknowns).
+fn chordal_headings(
+    graph: &PoseGraph,
+    unknown: &[Option<usize>],
+    pairs: &[(usize, usize)],
+) -> Result<Vec<f64>, GraphError> {
+    let n = graph.poses.len();
     let known = |p: usize| -> [f64; 2] {
         let (s, c) = graph.poses[p].theta.sin_cos();
         [c, s]
     };
-
-    // Headings: for each edge, rⱼ − R(θ_z) rᵢ = 0 with r = (cos θ, sin θ),
-    // weight w = the heading information; the held pose's r is known.
     let mut system = BlockSystem::<2>::new(n - 1, pairs.iter().copied())?;
     let mut rhs = vec![0.0; 2 * (n - 1)];
     for e in &graph.edges {
@@ -108,12 +127,12 @@ pub fn chordal(graph: &mut PoseGraph) -> Result<(), GraphError> {
         // i).
         let ident = [[1.0, 0.0], [0.0, 1.0]];
         let neg_a = [[-c, s], [-s, -c]];
-        let known_i = known_term(&unknown, e.from, &neg_a, &known);
-        let known_j = known_term(&unknown, e.to, &ident, &known);
+        let known_i = known_term(unknown, e.from, &neg_a, &known);
+        let known_j = known_term(unknown, e.to, &ident, &known);
         accumulate(
             &mut system,
             &mut rhs,
-            &unknown,
+            unknown,
             (e.from, neg_a),
             (e.to, ident),
             w,
@@ -123,14 +142,24 @@ pub fn chordal(graph: &mut PoseGraph) -> Result<(), GraphError> {
         );
     }
     let r = solve2(&system, rhs)?;
-    let theta: Vec<f64> = (0..n)
+    Ok((0..n)
         .map(|p| match unknown[p] {
             None => graph.poses[p].theta,
             Some(u) => r[2 * u + 1].atan2(r[2 * u]),
         })
-        .collect();
+        .collect())
+}
 
-    // Positions: tⱼ − tᵢ = R(θᵢ) t_z, weighted by R(θᵢ) Ω_t R(θᵢ)ᵀ.
+/// Every unknown pose's position (x, y interleaved, by unknown) by the
+/// chordal relaxation with the headings `theta`: tⱼ − tᵢ = R(θᵢ) t_z,
+/// weighted by R(θᵢ) Ω_t R(θᵢ)ᵀ.
+fn chordal_positions(
+    graph: &PoseGraph,
+    unknown: &[Option<usize>],
+    pairs: &[(usize, usize)],
+    theta: &[f64],
+) -> Result<Vec<f64>, GraphError> {
+    let n = graph.poses.len();
     let mut system = BlockSystem::<2>::new(n - 1, pairs.iter().copied())?;
     let mut rhs = vec![0.0; 2 * (n - 1)];
     let known_t = |p: usize| [graph.poses[p].x, graph.poses[p].y];
@@ -156,22 +185,16 @@ pub fn chordal(graph: &mut PoseGraph) -> Result<(), GraphError> {
         accumulate_weighted(
             &mut system,
             &mut rhs,
-            &unknown,
+            unknown,
             (e.from, neg),
             (e.to, ident),
             &w,
             z,
-            &known_term(&unknown, e.from, &neg, &known_t),
-            &known_term(&unknown, e.to, &ident, &known_t),
+            &known_term(unknown, e.from, &neg, &known_t),
+            &known_term(unknown, e.to, &ident, &known_t),
         );
     }
-    let t = solve2(&system, rhs)?;
-    for p in 0..n {
-        if let Some(u) = unknown[p] {
-            graph.poses[p] = Pose2::new(t[2 * u], t[2 * u + 1], theta[p]);
-        }
-    }
-    Ok(())
+    solve2(&system, rhs)
 }
 
 /// `J x` for a held pose (whose value is known), zero for an unknown one.

@@ -210,6 +210,8 @@ impl CameraSpec {
         }
     }
 
+    /// What is wrong with the camera, if anything: its size, its model's
+    /// measurements, its mount.
     fn problem(&self) -> Option<String> {
         use limits::*;
         if self.width < 2 || self.height < 2 {
@@ -226,6 +228,30 @@ impl CameraSpec {
                 MAX_IMAGE_PIXELS / 1_000_000
             ));
         }
+        if let Some(p) = self.ipm_problem() {
+            return Some(p);
+        }
+        if let Some(p) = self.pinhole.as_ref().and_then(|p| self.pinhole_problem(p)) {
+            return Some(p);
+        }
+        let m = self.mount();
+        if !(m.forward.is_finite() && m.left.is_finite()) {
+            return Some("camera.mount: forward and left must be finite".into());
+        }
+        if m.forward.abs() > MAX_MOUNT_M || m.left.abs() > MAX_MOUNT_M {
+            return Some(format!(
+                "camera.mount: forward {} and left {} m must be within {MAX_MOUNT_M} m of the turning centre",
+                m.forward, m.left
+            ));
+        }
+        None
+    }
+
+    /// What is wrong with the IPM measurements, if anything: each must be
+    /// a length a real camera has, and together they must describe a real
+    /// lens's field of view.
+    fn ipm_problem(&self) -> Option<String> {
+        use limits::*;
         if !self.ipm.is_valid() {
             return Some("camera.ipm: b, h, d, w must be finite and positive".into());
         }
@@ -254,54 +280,45 @@ impl CameraSpec {
                 ));
             }
         }
-        if let Some(p) = &self.pinhole {
-            let finite = [p.fx, p.fy, p.cx, p.cy, p.height, p.tilt_deg]
-                .iter()
-                .all(|v| v.is_finite());
-            if !finite || p.fx <= 0.0 || p.fy <= 0.0 || p.height <= 0.0 {
-                return Some(
-                    "camera.pinhole: fx, fy, height must be finite and positive, cx, cy, tilt_deg finite"
-                        .into(),
-                );
-            }
-            if !(-90.0..90.0).contains(&p.tilt_deg) {
-                return Some(format!(
-                    "camera.pinhole.tilt_deg {} is outside (-90, 90)",
-                    p.tilt_deg
-                ));
-            }
-            let side = f64::from(self.width.max(self.height));
-            if p.fx > MAX_FOCAL_SIDES * side || p.fy > MAX_FOCAL_SIDES * side {
-                return Some(format!(
-                    "camera.pinhole: fx {} and fy {} px must be at most {MAX_FOCAL_SIDES} image sides ({} px): no real lens sees less than half a degree",
-                    shown(p.fx),
-                    shown(p.fy),
-                    MAX_FOCAL_SIDES * side
-                ));
-            }
-            if !(0.0..=f64::from(self.width)).contains(&p.cx)
-                || !(0.0..=f64::from(self.height)).contains(&p.cy)
-            {
-                return Some(format!(
-                    "camera.pinhole: the principal point ({}, {}) lies outside the {}x{} image",
-                    p.cx, p.cy, self.width, self.height
-                ));
-            }
-            if p.height > MAX_LENGTH_M {
-                return Some(format!(
-                    "camera.pinhole.height {} m is above {MAX_LENGTH_M} m",
-                    p.height
-                ));
-            }
+        None
+    }
+
+    /// What is wrong with the pinhole model `p`, if anything.
+    fn pinhole_problem(&self, p: &PinholeSpec) -> Option<String> {
+        use limits::*;
+        let finite = [p.fx, p.fy, p.cx, p.cy, p.height, p.tilt_deg]
+            .iter()
+            .all(|v| v.is_finite());
+        if !finite || p.fx <= 0.0 || p.fy <= 0.0 || p.height <= 0.0 {
+            return Some(
+                "camera.pinhole: fx, fy, height must be finite and positive, cx, cy, tilt_deg finite".into(),
+            );
         }
-        let m = self.mount();
-        if !(m.forward.is_finite() && m.left.is_finite()) {
-            return Some("camera.mount: forward and left must be finite".into());
-        }
-        if m.forward.abs() > MAX_MOUNT_M || m.left.abs() > MAX_MOUNT_M {
+        if !(-90.0..90.0).contains(&p.tilt_deg) {
             return Some(format!(
-                "camera.mount: forward {} and left {} m must be within {MAX_MOUNT_M} m of the turning centre",
-                m.forward, m.left
+                "camera.pinhole.tilt_deg {} is outside (-90, 90)",
+                p.tilt_deg
+            ));
+        }
+        let side = f64::from(self.width.max(self.height));
+        if p.fx > MAX_FOCAL_SIDES * side || p.fy > MAX_FOCAL_SIDES * side {
+            return Some(format!(
+                "camera.pinhole: fx {} and fy {} px must be at most {MAX_FOCAL_SIDES} image sides ({} px): no real lens sees less than half a degree",
+                shown(p.fx),
+                shown(p.fy),
+                MAX_FOCAL_SIDES * side
+            ));
+        }
+        if !(0.0..=f64::from(self.width)).contains(&p.cx) || !(0.0..=f64::from(self.height)).contains(&p.cy) {
+            return Some(format!(
+                "camera.pinhole: the principal point ({}, {}) lies outside the {}x{} image",
+                p.cx, p.cy, self.width, self.height
+            ));
+        }
+        if p.height > MAX_LENGTH_M {
+            return Some(format!(
+                "camera.pinhole.height {} m is above {MAX_LENGTH_M} m",
+                p.height
             ));
         }
         None
@@ -476,61 +493,70 @@ impl Dataset {
             ));
         }
         for (i, f) in m.frames.iter().enumerate() {
-            let bad = |what: String| IoError::invalid(path, format!("frames[{i}] ({}): {what}", f.image));
-            if !is_safe_relative(&f.image) {
-                return Err(bad("image must be a relative path inside the dataset".into()));
-            }
-            if !self.root.join(&f.image).is_file() {
-                return Err(bad("image file does not exist".into()));
-            }
-            match f.motion {
-                Some(Motion::Turn { turn_deg: v }) | Some(Motion::Forward { forward: v })
-                    if !v.is_finite() =>
-                {
-                    return Err(bad("motion is not finite".into()))
-                }
-                Some(Motion::Forward { forward }) if forward.abs() > limits::MAX_FORWARD_M => {
-                    return Err(bad(format!(
-                        "a straight move of {} m between two frames is beyond the {} m limit (metres, not millimetres?)",
-                        shown(forward),
-                        limits::MAX_FORWARD_M
-                    )))
-                }
-                Some(Motion::Turn { turn_deg }) if turn_deg.abs() > limits::MAX_TURN_DEG => {
-                    return Err(bad(format!(
-                        "a turn of {}° between two frames is more than a full turn",
-                        shown(turn_deg)
-                    )))
-                }
-                _ => {}
-            }
-            // Sweep numbers follow the motions: a turn stays in the sweep,
-            // a straight move starts a later one.
-            if i > 0 {
-                let before = m.frames[i - 1].sweep;
-                match f.motion {
-                    Some(Motion::Turn { .. }) if f.sweep != before => {
-                        return Err(bad(format!(
-                            "a turn keeps the robot in sweep {before}, but the frame says sweep {}",
-                            f.sweep
-                        )))
-                    }
-                    Some(Motion::Forward { .. }) if f.sweep <= before => {
-                        return Err(bad(format!(
-                            "a straight move starts a new sweep after sweep {before}, but the frame says sweep {}",
-                            f.sweep
-                        )))
-                    }
-                    _ => {}
-                }
-            }
-            if let Some(t) = f.truth {
-                if !(t.x.is_finite() && t.y.is_finite() && t.theta_deg.is_finite()) {
-                    return Err(bad("truth pose is not finite".into()));
-                }
+            let previous = i.checked_sub(1).map(|j| m.frames[j].sweep);
+            if let Some(what) = self.frame_problem(f, previous) {
+                return Err(IoError::invalid(
+                    path,
+                    format!("frames[{i}] ({}): {what}", f.image),
+                ));
             }
         }
         Ok(())
+    }
+
+    /// What is wrong with frame `f` (after a frame of sweep `previous`),
+    /// if anything: its image, its motion, its sweep number, its truth.
+    fn frame_problem(&self, f: &FrameSpec, previous: Option<u32>) -> Option<String> {
+        if !is_safe_relative(&f.image) {
+            return Some("image must be a relative path inside the dataset".into());
+        }
+        if !self.root.join(&f.image).is_file() {
+            return Some("image file does not exist".into());
+        }
+        match f.motion {
+            Some(Motion::Turn { turn_deg: v }) | Some(Motion::Forward { forward: v })
+                if !v.is_finite() =>
+            {
+                return Some("motion is not finite".into())
+            }
+            Some(Motion::Forward { forward }) if forward.abs() > limits::MAX_FORWARD_M => {
+                return Some(format!(
+                    "a straight move of {} m between two frames is beyond the {} m limit (metres, not millimetres?)",
+                    shown(forward),
+                    limits::MAX_FORWARD_M
+                ))
+            }
+            Some(Motion::Turn { turn_deg }) if turn_deg.abs() > limits::MAX_TURN_DEG => {
+                return Some(format!(
+                    "a turn of {}° between two frames is more than a full turn",
+                    shown(turn_deg)
+                ))
+            }
+            _ => {}
+        }
+        // Sweep numbers follow the motions: a turn stays in the sweep,
+        // a straight move starts a later one.
+        if let Some(before) = previous {
+            match f.motion {
+                Some(Motion::Turn { .. }) if f.sweep != before => {
+                    return Some(format!(
+                        "a turn keeps the robot in sweep {before}, but the frame says sweep {}",
+                        f.sweep
+                    ))
+                }
+                Some(Motion::Forward { .. }) if f.sweep <= before => return Some(format!(
+                    "a straight move starts a new sweep after sweep {before}, but the frame says sweep {}",
+                    f.sweep
+                )),
+                _ => {}
+            }
+        }
+        if let Some(t) = f.truth {
+            if !(t.x.is_finite() && t.y.is_finite() && t.theta_deg.is_finite()) {
+                return Some("truth pose is not finite".into());
+            }
+        }
+        None
     }
 
     /// The manifest's path.

@@ -255,11 +255,20 @@ impl Scene {
 
     /// Checks the scene for values that cannot be rendered.
     pub fn validate(&self) -> Result<(), SimError> {
-        let bad = |p: &str| {
-            Err(SimError::Invalid {
-                problem: p.to_string(),
-            })
-        };
+        let problem = (self.camera_problem())
+            .or_else(|| self.route_problem())
+            .or_else(|| self.motion_problem())
+            .or_else(|| self.look_problem())
+            .or_else(|| self.world_problem());
+        match problem {
+            Some(problem) => Err(SimError::Invalid { problem }),
+            None => Ok(()),
+        }
+    }
+
+    /// What is wrong with the camera or the range limit, if anything.
+    fn camera_problem(&self) -> Option<String> {
+        use pirouette_io::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_LENGTH_M, MAX_RANGE_M};
         let c = &self.camera;
         if c.width < 2
             || c.height < 2
@@ -267,42 +276,49 @@ impl Scene {
             || c.height_m.is_nan()
             || c.height_m <= 0.0
         {
-            return bad("camera: width and height ≥ 2, hfov_deg in (1, 170), height_m > 0");
+            return Some("camera: width and height ≥ 2, hfov_deg in (1, 170), height_m > 0".into());
         }
         if !(c.tilt_deg > 0.0 && c.tilt_deg < 90.0) {
-            return bad("camera: tilt_deg must be in (0, 90)");
+            return Some("camera: tilt_deg must be in (0, 90)".into());
         }
+        if c.width > MAX_IMAGE_SIDE
+            || c.height > MAX_IMAGE_SIDE
+            || u64::from(c.width) * u64::from(c.height) > MAX_IMAGE_PIXELS
         {
-            use pirouette_io::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_LENGTH_M, MAX_RANGE_M};
-            if c.width > MAX_IMAGE_SIDE
-                || c.height > MAX_IMAGE_SIDE
-                || u64::from(c.width) * u64::from(c.height) > MAX_IMAGE_PIXELS
-            {
-                return bad(&format!(
-                    "camera: {}x{} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels a dataset may hold",
-                    c.width,
-                    c.height,
-                    MAX_IMAGE_PIXELS / 1_000_000
-                ));
-            }
-            if c.height_m > MAX_LENGTH_M || self.max_range > MAX_RANGE_M {
-                return bad(&format!(
-                    "camera height {} m and max_range {} m must be at most {MAX_LENGTH_M} m and {MAX_RANGE_M} m",
-                    c.height_m, self.max_range
-                ));
-            }
+            return Some(format!(
+                "camera: {}x{} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels a dataset may hold",
+                c.width,
+                c.height,
+                MAX_IMAGE_PIXELS / 1_000_000
+            ));
+        }
+        if c.height_m > MAX_LENGTH_M || self.max_range > MAX_RANGE_M {
+            return Some(format!(
+                "camera height {} m and max_range {} m must be at most {MAX_LENGTH_M} m and {MAX_RANGE_M} m",
+                c.height_m, self.max_range
+            ));
         }
         if !(self.max_range.is_finite() && self.max_range > 0.0) {
-            return bad("max_range must be finite and positive");
+            return Some("max_range must be finite and positive".into());
         }
+        None
+    }
+
+    /// What is wrong with the route's size, if anything.
+    fn route_problem(&self) -> Option<String> {
         if self.route.waypoints.is_empty() || self.route.frames_per_sweep == 0 {
-            return bad("route: at least one waypoint and one frame per sweep");
+            return Some("route: at least one waypoint and one frame per sweep".into());
         }
         if self.route.waypoints.len() > MAX_WAYPOINTS || self.route.frames_per_sweep > MAX_FRAMES_PER_SWEEP {
-            return bad(&format!(
+            return Some(format!(
                 "route: at most {MAX_WAYPOINTS} waypoints and {MAX_FRAMES_PER_SWEEP} frames per sweep"
             ));
         }
+        None
+    }
+
+    /// What is wrong with the motion errors, if anything.
+    fn motion_problem(&self) -> Option<String> {
         let m = &self.motion_errors;
         let spreads = [
             m.turn_sigma_deg,
@@ -311,59 +327,46 @@ impl Scene {
             m.forward_sigma_rel * 90.0,
             (m.rotation_centre_offset_m.abs() + m.rotation_centre_jitter_m) * 90.0,
         ];
-        if spreads
-            .iter()
+        (spreads.iter())
             .any(|v| !(v.is_finite() && (0.0..=90.0).contains(v)))
-        {
-            return bad(
+            .then(|| {
                 "motion_errors: turn and heading errors within 0-90°, forward_sigma_rel within 0-1, \
-                 rotation centre offset and jitter within 1 m",
-            );
-        }
+             rotation centre offset and jitter within 1 m"
+                    .into()
+            })
+    }
+
+    /// What is wrong with the look, if anything.
+    fn look_problem(&self) -> Option<String> {
         let l = &self.look;
         let [x0, y0, x1, y1] = self.world.bounds;
         let specks = ((x1 - x0) * (y1 - y0)).abs() * l.specks_per_m2;
         let noise_ok = (0.0..=255.0).contains(&l.noise_sigma);
         let specks_ok = (0.0..=MAX_SPECKS as f64).contains(&specks);
-        if !(noise_ok && specks_ok) {
-            return bad(&format!(
-                "look: noise_sigma within 0-255 levels and at most {MAX_SPECKS} specks over the world's bounds"
-            ));
-        }
-        if self
-            .route
-            .waypoints
-            .iter()
-            .flatten()
-            .chain([&self.route.start_heading_deg])
+        (!(noise_ok && specks_ok)).then(|| {
+            format!("look: noise_sigma within 0-255 levels and at most {MAX_SPECKS} specks over the world's bounds")
+        })
+    }
+
+    /// What is wrong with the world's obstacles and the route among them,
+    /// if anything.
+    fn world_problem(&self) -> Option<String> {
+        let route = &self.route;
+        if (route.waypoints.iter().flatten())
+            .chain([&route.start_heading_deg])
             .any(|v| !v.is_finite())
         {
-            return bad("route: waypoints and heading must be finite");
+            return Some("route: waypoints and heading must be finite".into());
         }
-        if let Some((i, p)) = self
-            .world
-            .obstacles
-            .iter()
-            .enumerate()
-            .find_map(|(i, o)| o.problem().map(|p| (i, p)))
-        {
-            return Err(SimError::Invalid {
-                problem: format!("world.obstacles[{i}]: {p}"),
-            });
+        let obstacles = &self.world.obstacles;
+        if let Some((i, p)) = (obstacles.iter().enumerate()).find_map(|(i, o)| o.problem().map(|p| (i, p))) {
+            return Some(format!("world.obstacles[{i}]: {p}"));
         }
-        for (i, w) in self.route.waypoints.iter().enumerate() {
-            if self
-                .world
-                .obstacles
-                .iter()
-                .any(|o| o.ray_interval(*w, [1.0, 0.0]).is_some_and(|h| h.t_enter <= 0.0))
-            {
-                return Err(SimError::Invalid {
-                    problem: format!("route.waypoints[{i}] lies inside an obstacle"),
-                });
-            }
-        }
-        Ok(())
+        let inside = |w: &[f64; 2]| {
+            (obstacles.iter()).any(|o| o.ray_interval(*w, [1.0, 0.0]).is_some_and(|h| h.t_enter <= 0.0))
+        };
+        let i = route.waypoints.iter().position(inside)?;
+        Some(format!("route.waypoints[{i}] lies inside an obstacle"))
     }
 }
 

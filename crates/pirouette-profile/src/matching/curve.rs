@@ -75,6 +75,47 @@ impl CostCurve {
     }
 }
 
+impl CostCurve {
+    /// Shifts `k_lo..k_lo + n`, none compared yet.
+    fn unmatched(k_lo: i64, n: usize) -> Self {
+        Self {
+            k_lo,
+            cost: vec![f64::INFINITY; n],
+            overlap: vec![0; n],
+            informative: vec![0; n],
+            any_informative: false,
+            colour_pairs: vec![0; n],
+            colour_cost: vec![0.0; n],
+            compared: vec![0..0; n],
+        }
+    }
+}
+
+/// For each of `n` shifts, the bins of `sa` compared: after's bin `i`
+/// meets before's `sb[i + j]` at shift `j`, both seen only within
+/// `lo..hi`, widened to whole blocks of [`LANES`] so that each bin keeps
+/// its lane.
+fn compared_blocks(sa: &Signals, sb: &Signals, n: usize) -> Vec<std::ops::Range<usize>> {
+    // The bins each profile saw, first to last.
+    let seen = |inv: &[f32]| {
+        let first = inv.iter().position(|x| !x.is_nan()).unwrap_or(inv.len());
+        let last = inv.iter().rposition(|x| !x.is_nan()).map_or(first, |l| l + 1);
+        first..last
+    };
+    let (seen_a, seen_b) = (seen(sa.inv()), seen(sb.inv()));
+    (0..n)
+        .map(|j| {
+            let lo = seen_a.start.max(seen_b.start.saturating_sub(j));
+            let hi = seen_a.end.min(seen_b.end.saturating_sub(j));
+            if lo < hi {
+                lo / LANES * LANES..hi.div_ceil(LANES) * LANES
+            } else {
+                0..0
+            }
+        })
+        .collect()
+}
+
 thread_local! {
     /// The buffer of [`cost_curve`]'s kept gaps, one per thread and reused
     /// from match to match: it only grows, and is never cleared, since each
@@ -102,34 +143,10 @@ pub(super) fn cost_curve(
     gaps: &mut Vec<f32>,
 ) -> CostCurve {
     let n = (k_hi - k_lo + 1).max(0) as usize;
-    let mut curve = CostCurve {
-        k_lo,
-        cost: vec![f64::INFINITY; n],
-        overlap: vec![0; n],
-        informative: vec![0; n],
-        any_informative: false,
-        colour_pairs: vec![0; n],
-        colour_cost: vec![0.0; n],
-        compared: vec![0..0; n],
-    };
+    let mut curve = CostCurve::unmatched(k_lo, n);
+    curve.compared = compared_blocks(sa, sb, n);
     let (inv_s, chroma_s) = (1.0 / inverse_range_sigma, 1.0 / config.chroma_sigma);
-    // The bins each profile saw, first to last.
-    let seen = |inv: &[f32]| {
-        let first = inv.iter().position(|x| !x.is_nan()).unwrap_or(inv.len());
-        let last = inv.iter().rposition(|x| !x.is_nan()).map_or(first, |l| l + 1);
-        first..last
-    };
-    let (seen_a, seen_b) = (seen(sa.inv()), seen(sb.inv()));
     let mut planner = (config.measure == Measure::Dct).then(DctPlanner::new);
-    for (j, compared) in curve.compared.iter_mut().enumerate() {
-        // After's bin i meets before's sb[i + j]: both seen only within
-        // `lo..hi`, widened to whole blocks so that each bin keeps its lane.
-        let lo = seen_a.start.max(seen_b.start.saturating_sub(j));
-        let hi = seen_a.end.min(seen_b.end.saturating_sub(j));
-        if lo < hi {
-            *compared = lo / LANES * LANES..hi.div_ceil(LANES) * LANES;
-        }
-    }
     // The gaps of each shift's compared blocks, shift after shift, at the
     // start of `gaps` (every one is written below; a longer buffer's tail
     // is left as it is).
@@ -179,15 +196,7 @@ pub(super) fn cost_curve(
         }
         let mut range_cost = range_cost as f64;
         if let Some(planner) = planner.as_mut() {
-            xa.clear();
-            xb.clear();
-            for i in 0..pair.ia.len() {
-                if !pair.ia[i].is_nan() && !pair.ib[i].is_nan() {
-                    xa.push(pair.ia[i] * inv_s);
-                    xb.push(pair.ib[i] * inv_s);
-                }
-            }
-            range_cost = dct_distance(planner, &mut xa, &mut xb);
+            range_cost = pair.dct_cost(planner, (&mut xa, &mut xb));
         }
         curve.overlap[j] = n_range as usize;
         curve.informative[j] = n_info as usize;
@@ -265,6 +274,20 @@ struct Sums {
 pub(super) const LANES: usize = 8;
 
 impl Pair<'_> {
+    /// The range cost under [`Measure::Dct`]: the DCT distance of the
+    /// inverse ranges of the bins both saw, in σ (`xa`, `xb`: buffers).
+    fn dct_cost(&self, planner: &mut DctPlanner<f32>, (xa, xb): (&mut Vec<f32>, &mut Vec<f32>)) -> f64 {
+        xa.clear();
+        xb.clear();
+        for (&a, &b) in self.ia.iter().zip(self.ib) {
+            if !a.is_nan() && !b.is_nan() {
+                xa.push(a * self.inv_s);
+                xb.push(b * self.inv_s);
+            }
+        }
+        dct_distance(planner, xa, xb)
+    }
+
     /// The costs over the overlap, one monomorphised loop per measure:
     /// - a pair of bins counts when both were seen; its range cost, the gap
     ///   between the bins' intervals of inverse range, when one sees an
