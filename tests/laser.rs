@@ -5,7 +5,7 @@ use crate::util::{pirouette, shared};
 use pirouette::eval::laser::{aligned_ate, evaluate_laser, relative_errors};
 use pirouette::geom::Pose2;
 use pirouette::laser::{check_config, register_log, LaserConfig, LoopConfig, RegisteredLog};
-use pirouette::sim::{LogSim, Walls};
+use pirouette::sim::{LogSim, OfficeFloor, Walls};
 
 /// The robot's true path: twice round the ring corridor
 /// ([`Walls::ring`]), 0.25 m steps
@@ -111,6 +111,37 @@ fn a_simulated_log_is_mapped_to_its_true_path_and_the_loop_closes() {
         let d = path[l.from].between(&path[l.to]).translation().norm();
         assert!(d < 1.5, "a loop between scans {d} m apart: {l:?}");
     }
+}
+
+#[test]
+fn a_wide_scanner_s_robotlaser_log_of_an_office_floor_maps_to_its_true_path() {
+    // 2 × 2 blocks, a 270° scanner of 1,081 beams written as ROBOTLASER1
+    // lines: the beam layout comes from each line.
+    let floor = OfficeFloor {
+        columns: 2,
+        rows: 2,
+        ..OfficeFloor::default()
+    };
+    let path: Vec<Pose2> = floor.wander(5).take(400).collect();
+    let mut text = Vec::new();
+    let sim = LogSim::hokuyo();
+    (sim.write(&mut text, &floor.walls(5), path.iter().copied(), |_| false, 5)).expect("a log in memory");
+    let (_dir, _log, reg) = registered(&String::from_utf8(text).expect("text"));
+    assert_eq!(reg.scans.len(), path.len());
+    let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
+    let dead: Vec<Pose2> = reg.scans.iter().map(|s| s.dead_reckoning).collect();
+    let truth: Vec<Pose2> = path.iter().map(|p| path[0].between(p)).collect();
+    let (ate, ate_dead) = (aligned_ate(&est, &truth), aligned_ate(&dead, &truth));
+    assert!(
+        ate < 0.05 && ate_dead > 0.3,
+        "ATE {ate} m, dead reckoning {ate_dead} m"
+    );
+    let rel = relative_errors(&est, &truth, 1.0);
+    assert!(
+        rel.translation_mean_m < 0.02 && rel.rotation_mean_deg < 0.3,
+        "{rel:?}"
+    );
+    assert!(reg.scans.iter().all(|s| s.registered));
 }
 
 #[test]
