@@ -290,16 +290,32 @@ fn map_and_eval_laser_write_and_score_a_log() {
     assert_eq!(poses[3]["scan"], 3);
     assert!((poses[3]["t"].as_f64().expect("t") - 0.6).abs() < 1e-9);
     assert!(poses[3].get("image").is_none());
-    // The pose graph: a vertex per scan at its pose, a step edge per scan
-    // after the first and the loops kept.
+    // The pose graph: a vertex per node (every searched scan, and each
+    // scan that may become a keyframe), its id the scan's number, at the
+    // scan's pose; an edge per run of steps between nodes and per loop.
     let g = pirouette::io::read_g2o(&out.join("graph.g2o")).expect("the graph reads back");
-    assert_eq!(g.graph.poses.len(), path.len());
+    let nodes = g.graph.poses.len();
     assert!(
-        g.graph.edges.len() > path.len(),
+        (path.len() / 5..path.len()).contains(&nodes),
+        "{nodes} vertices for {} scans",
+        path.len()
+    );
+    assert!(
+        g.graph.edges.len() > nodes - 1,
         "{} edges: no loop edge",
         g.graph.edges.len()
     );
-    assert!((g.graph.poses[3].x - poses[3]["x"].as_f64().expect("x")).abs() < 1e-5);
+    for (v, &id) in g.ids.iter().enumerate() {
+        let at = &poses[id as usize];
+        assert!(
+            (g.graph.poses[v].x - at["x"].as_f64().expect("x")).abs() < 1e-5,
+            "vertex {id}"
+        );
+        assert!(
+            (g.graph.poses[v].y - at["y"].as_f64().expect("y")).abs() < 1e-5,
+            "vertex {id}"
+        );
+    }
     // The command's scores are the library's on the same files.
     let report = evaluate_laser(&log, &out, &[1.0]).expect("scored");
     let run = pirouette(&[

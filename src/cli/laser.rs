@@ -103,7 +103,7 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     write_map_dir(out, &ros, &png, &records)?;
     let graph = G2oGraph {
         graph: mapped.registered.graph.clone(),
-        ids: (0..mapped.registered.graph.poses.len() as u64).collect(),
+        ids: mapped.registered.nodes.iter().map(|&k| k as u64).collect(),
         has_vertices: true,
     };
     write_g2o(&out.join(GRAPH_FILE), &graph)?;

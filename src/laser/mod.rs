@@ -22,10 +22,12 @@ use crate::register::{
 };
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
+use nodes::Nodes;
 use revisits::{Keyframes, Track};
 use std::collections::VecDeque;
 use std::path::Path;
 
+mod nodes;
 mod revisits;
 
 /// How far raw odometry may stray, one standard deviation.
@@ -341,9 +343,14 @@ pub struct RegisteredLog {
     /// Times the pose graph was solved: only for loops that disagree with
     /// the poses (see [`SOLVE_GATE`]), and once at the end for any left.
     pub solves: usize,
-    /// The pose graph at its solution: a node per scan (the scan's
-    /// pose), an edge per step and per loop kept.
+    /// The pose graph at its solution: a node per searched scan (every
+    /// [`LoopConfig::every_scans`]th) and per scan that may be a keyframe,
+    /// at its pose (every scan, without loop closure); an edge per run of
+    /// steps between two nodes (their composed relative pose and
+    /// covariance) and per loop kept.
     pub graph: PoseGraph,
+    /// The scan of each node of `graph`.
+    pub nodes: Vec<usize>,
 }
 
 /// The running state of registration: the poses, the path length to
@@ -355,8 +362,10 @@ struct Mapper<'c> {
     /// The endpoints of scans `first..first + recent.len()`.
     recent: VecDeque<Vec<Point2>>,
     first: usize,
-    /// A node per scan at its current pose, an edge per step and per loop.
-    graph: PoseGraph,
+    /// Every scan's current pose.
+    poses: Vec<Pose2>,
+    /// The pose graph over the node scans.
+    nodes: Nodes,
     along_m: Vec<f64>,
     keyframes: Keyframes,
     loops: Vec<(LoopClosure, usize)>,
@@ -388,6 +397,15 @@ const EDGE_FLOOR_M: f64 = 0.01;
 /// The same for heading, radians.
 const EDGE_FLOOR_RAD: f64 = 0.004;
 
+/// The floors' covariance.
+fn edge_floor() -> Matrix3<f64> {
+    Matrix3::from_diagonal(&Vector3::new(
+        EDGE_FLOOR_M.powi(2),
+        EDGE_FLOOR_M.powi(2),
+        EDGE_FLOOR_RAD.powi(2),
+    ))
+}
+
 impl<'c> Mapper<'c> {
     /// Nothing registered yet.
     fn new(config: &'c LaserConfig) -> Result<Self> {
@@ -395,7 +413,8 @@ impl<'c> Mapper<'c> {
             config,
             recent: VecDeque::new(),
             first: 0,
-            graph: PoseGraph::new(Vec::new()),
+            poses: Vec::new(),
+            nodes: Nodes::new(),
             along_m: Vec::new(),
             keyframes: Keyframes::new()?,
             loops: Vec::new(),
@@ -418,7 +437,7 @@ impl<'c> Mapper<'c> {
         let spacing = config.register.spacing_m.max(config.field_resolution_m);
         self.remember(k, thin_points(&points, spacing));
         if k == 0 {
-            self.graph.poses.push(Pose2::IDENTITY);
+            self.poses.push(Pose2::IDENTITY);
             self.along_m.push(0.0);
             return Ok(true);
         }
@@ -450,14 +469,18 @@ impl<'c> Mapper<'c> {
         if self.unsolved {
             self.optimise();
         }
-        for (s, p) in meta.iter_mut().zip(&self.graph.poses) {
+        for (s, p) in meta.iter_mut().zip(&self.poses) {
             s.pose = *p;
         }
         let dropped: Vec<usize> = (self.loops.iter())
             .filter(|(l, _)| !l.kept)
             .map(|&(_, e)| e)
             .collect();
-        let mut graph = self.graph;
+        let Nodes {
+            mut graph,
+            scans: nodes,
+            ..
+        } = self.nodes;
         graph.edges = (graph.edges.into_iter().enumerate())
             .filter(|(e, _)| !dropped.contains(e))
             .map(|(_, edge)| edge)
@@ -469,6 +492,7 @@ impl<'c> Mapper<'c> {
             keyframes: self.keyframes.len(),
             solves: self.solves,
             graph,
+            nodes,
         }
     }
 
@@ -483,7 +507,7 @@ impl<'c> Mapper<'c> {
             .flat_map(|k| {
                 self.points(k)
                     .iter()
-                    .map(move |p| self.graph.poses[k].transform_point(*p))
+                    .map(move |p| self.poses[k].transform_point(*p))
             })
             .collect();
         self.field_of(&points)
@@ -511,7 +535,7 @@ impl<'c> Mapper<'c> {
     /// The poses and path lengths so far.
     fn track(&self) -> Track<'_> {
         Track {
-            poses: &self.graph.poses,
+            poses: &self.poses,
             along_m: &self.along_m,
         }
     }
@@ -523,7 +547,8 @@ impl<'c> Mapper<'c> {
         let Some(j) = k.checked_sub(c.anchor_scans) else {
             return Ok(());
         };
-        if !self.keyframes.wanted(self.config, &self.track(), j) {
+        // A keyframe is a loop's earlier end: a node of the graph.
+        if self.nodes.node_of(j).is_none() || !self.keyframes.wanted(self.config, &self.track(), j) {
             return Ok(());
         }
         let points = self.points_in_frame(j, j.saturating_sub(c.anchor_scans)..k + 1);
@@ -538,59 +563,63 @@ impl<'c> Mapper<'c> {
 
     /// The endpoints of recent scans `range` in scan `j`'s frame.
     fn points_in_frame(&self, j: usize, range: std::ops::Range<usize>) -> Vec<Point2> {
-        let to_j = self.graph.poses[j].inverse();
+        let to_j = self.poses[j].inverse();
         range
             .flat_map(|m| {
-                let rel = to_j * self.graph.poses[m];
+                let rel = to_j * self.poses[m];
                 self.points(m).iter().map(move |p| rel.transform_point(*p))
             })
             .collect()
     }
 
-    /// An edge `i → j` measuring `j`'s registered pose `pose_j` (with its
-    /// world covariance) in the frame of `i`'s current pose.
-    fn edge(
-        &self,
-        i: usize,
-        j: usize,
-        pose_j: &Pose2,
-        covariance: &Matrix3<f64>,
-        kernel: Kernel,
-    ) -> GraphEdge {
-        let (s, c) = self.graph.poses[i].theta.sin_cos();
+    /// A registered pose's covariance (in the world frame) in the frame of
+    /// scan `i`'s current pose, with the floors added.
+    fn local_covariance(&self, i: usize, covariance: &Matrix3<f64>) -> Matrix3<f64> {
+        let (s, c) = self.poses[i].theta.sin_cos();
         let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-        let floor = Matrix3::from_diagonal(&Vector3::new(
-            EDGE_FLOOR_M.powi(2),
-            EDGE_FLOOR_M.powi(2),
-            EDGE_FLOOR_RAD.powi(2),
-        ));
-        let local = r.transpose() * covariance * r + floor;
-        let info = local
-            .try_inverse()
-            .unwrap_or_else(|| floor.map(|v| if v > 0.0 { 1.0 / v } else { 0.0 }));
+        r.transpose() * covariance * r + edge_floor()
+    }
+
+    /// A loop edge `i → j` measuring `j`'s registered pose `pose_j` (with
+    /// its world covariance) in the frame of `i`'s current pose, between
+    /// scans `i` and `j`.
+    fn loop_edge(&self, i: usize, j: usize, pose_j: &Pose2, covariance: &Matrix3<f64>) -> GraphEdge {
+        let local = self.local_covariance(i, covariance);
+        let info = (local.try_inverse())
+            .unwrap_or_else(|| edge_floor().map(|v| if v > 0.0 { 1.0 / v } else { 0.0 }));
         let mut e = MeasuredEdge {
             i,
             j,
-            z: self.graph.poses[i].between(pose_j),
+            z: self.poses[i].between(pose_j),
             info: 0.5 * (info + info.transpose()),
         }
         .to_graph();
-        e.kernel = kernel;
+        e.kernel = Kernel::Cauchy { c: 1.0 };
         e
+    }
+
+    /// Whether scan `k` (placed) is to be a node of the graph: every scan
+    /// searched for revisits (a loop's later end) and every scan that may
+    /// become a keyframe (a loop's earlier end); every scan where loops
+    /// are not closed.
+    fn is_node(&self, k: usize) -> bool {
+        let every = self.config.loops.every_scans;
+        every == 0 || k % every == 0 || self.keyframes.wanted(self.config, &self.track(), k)
     }
 
     /// Registers scan `k` (its endpoints already stored) after the
     /// previous one, with `odometry` as the prior.
     fn place(&mut self, k: usize, odometry: Option<&Pose2>, label: &dyn Fn() -> String) -> Result<bool> {
         let config = self.config;
-        let prior = step_prior(&self.graph.poses[k - 1], odometry, config);
+        let prior = step_prior(&self.poses[k - 1], odometry, config);
         let field = self.field(k.saturating_sub(config.local_scans)..k);
         let reg = register(&field, self.points(k), &prior, &config.register).with_context(label)?;
-        self.graph.poses.push(reg.pose);
-        let step = self.graph.poses[k - 1].between(&reg.pose).translation().norm();
-        self.along_m.push(self.along_m[k - 1] + step);
-        let edge = self.edge(k - 1, k, &reg.pose, &reg.covariance, Kernel::Squared);
-        self.graph.edges.push(edge);
+        let step = self.poses[k - 1].between(&reg.pose);
+        let covariance = self.local_covariance(k - 1, &reg.covariance);
+        self.poses.push(reg.pose);
+        self.along_m.push(self.along_m[k - 1] + step.translation().norm());
+        let node = self.is_node(k);
+        self.nodes.step(&step, &covariance, reg.pose, node);
         Ok(reg.accepted)
     }
 
@@ -609,7 +638,7 @@ impl<'c> Mapper<'c> {
             Vec::new()
         };
         let track = Track {
-            poses: &self.graph.poses,
+            poses: &self.poses,
             along_m: &self.along_m,
         };
         let scan = &self.recent[k - self.first];
@@ -622,23 +651,20 @@ impl<'c> Mapper<'c> {
         }
         for f in &found {
             let reg = &f.registration;
-            let edge = self.edge(
-                f.from,
-                f.to,
-                &reg.pose,
-                &reg.covariance,
-                Kernel::Cauchy { c: 1.0 },
-            );
-            let chi2 = edge.chi2(&self.graph.poses[f.from], &self.graph.poses[f.to]);
+            let edge = self.loop_edge(f.from, f.to, &reg.pose, &reg.covariance);
+            let chi2 = edge.chi2(&self.poses[f.from], &self.poses[f.to]);
+            // Both ends are nodes: a keyframe and a searched scan.
+            let Some(e) = self.nodes.add(edge) else {
+                continue;
+            };
             self.disagree |= chi2 > SOLVE_GATE;
-            self.graph.edges.push(edge);
             let closure = LoopClosure {
                 from: f.from,
                 to: f.to,
                 recognised: f.recognised,
                 kept: true,
             };
-            self.loops.push((closure, self.graph.edges.len() - 1));
+            self.loops.push((closure, e));
         }
         Ok(!found.is_empty())
     }
@@ -652,11 +678,11 @@ impl<'c> Mapper<'c> {
         };
         self.solves += 1;
         // A graph that cannot be solved keeps its poses.
-        if optimise(&mut self.graph, &config).is_err() {
+        let graph = &mut self.nodes.graph;
+        if optimise(graph, &config).is_err() {
             return;
         }
         let mut dropped = false;
-        let graph = &mut self.graph;
         for (closure, e) in self.loops.iter_mut().filter(|(l, _)| l.kept) {
             let edge = &graph.edges[*e];
             if edge.chi2(&graph.poses[edge.from], &graph.poses[edge.to]) > EDGE_GATE {
@@ -666,8 +692,13 @@ impl<'c> Mapper<'c> {
                 dropped = true;
             }
         }
-        if dropped && optimise(graph, &config).is_err() {
-            return;
+        // Solved again without them (where that fails, the first solution
+        // stands).
+        if dropped {
+            let _ = optimise(graph, &config);
+        }
+        for (p, q) in self.poses.iter_mut().zip(self.nodes.poses()) {
+            *p = q;
         }
         self.unsolved = false;
         self.disagree = false;
