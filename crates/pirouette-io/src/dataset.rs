@@ -544,10 +544,12 @@ impl Dataset {
                         f.sweep
                     ))
                 }
-                Some(Motion::Forward { .. }) if f.sweep <= before => return Some(format!(
+                Some(Motion::Forward { .. }) if f.sweep <= before => {
+                    return Some(format!(
                     "a straight move starts a new sweep after sweep {before}, but the frame says sweep {}",
                     f.sweep
-                )),
+                ))
+                }
                 _ => {}
             }
         }
