@@ -341,7 +341,7 @@ pub struct RegisteredLog {
     /// Places kept for revisits (see [`LoopConfig::keyframe_spacing_m`]).
     pub keyframes: usize,
     /// Times the pose graph was solved: only for loops that disagree with
-    /// the poses (see [`SOLVE_GATE`]), and once at the end for any left.
+    /// the poses (a χ² above 7.81 there), and once at the end for any left.
     pub solves: usize,
     /// The pose graph at its solution: a node per searched scan (every
     /// [`LoopConfig::every_scans`]th) and per scan that may be a keyframe,
