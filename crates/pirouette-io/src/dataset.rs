@@ -217,16 +217,8 @@ impl CameraSpec {
         if self.width < 2 || self.height < 2 {
             return Some(format!("camera size {}x{} is too small", self.width, self.height));
         }
-        if self.width > MAX_IMAGE_SIDE
-            || self.height > MAX_IMAGE_SIDE
-            || u64::from(self.width) * u64::from(self.height) > MAX_IMAGE_PIXELS
-        {
-            return Some(format!(
-                "camera size {}x{} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels this reader takes",
-                self.width,
-                self.height,
-                MAX_IMAGE_PIXELS / 1_000_000
-            ));
+        if let Some(p) = image_size_problem(self.width, self.height) {
+            return Some(format!("camera size {p}"));
         }
         if let Some(p) = self.ipm_problem() {
             return Some(p);
@@ -344,6 +336,20 @@ pub mod limits {
     pub const MAX_IMAGE_SIDE: u32 = 8192;
     /// The most pixels in an image.
     pub const MAX_IMAGE_PIXELS: u64 = 40_000_000;
+
+    /// What is wrong with an image of `width` × `height` pixels for these
+    /// limits, if anything.
+    pub fn image_size_problem(width: u32, height: u32) -> Option<String> {
+        let too_big = width > MAX_IMAGE_SIDE
+            || height > MAX_IMAGE_SIDE
+            || u64::from(width) * u64::from(height) > MAX_IMAGE_PIXELS;
+        too_big.then(|| {
+            format!(
+                "{width}x{height} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels an image may have",
+                MAX_IMAGE_PIXELS / 1_000_000
+            )
+        })
+    }
     /// The longest camera measurement (IPM `b`, `h`, `d`, `w`, pinhole
     /// height), metres.
     pub const MAX_LENGTH_M: f64 = 10.0;

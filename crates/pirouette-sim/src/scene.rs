@@ -268,7 +268,7 @@ impl Scene {
 
     /// What is wrong with the camera or the range limit, if anything.
     fn camera_problem(&self) -> Option<String> {
-        use pirouette_io::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_LENGTH_M, MAX_RANGE_M};
+        use pirouette_io::limits::{image_size_problem, MAX_LENGTH_M, MAX_RANGE_M};
         let c = &self.camera;
         if c.width < 2
             || c.height < 2
@@ -281,16 +281,8 @@ impl Scene {
         if !(c.tilt_deg > 0.0 && c.tilt_deg < 90.0) {
             return Some("camera: tilt_deg must be in (0, 90)".into());
         }
-        if c.width > MAX_IMAGE_SIDE
-            || c.height > MAX_IMAGE_SIDE
-            || u64::from(c.width) * u64::from(c.height) > MAX_IMAGE_PIXELS
-        {
-            return Some(format!(
-                "camera: {}x{} is beyond the {MAX_IMAGE_SIDE} pixels a side and {} megapixels a dataset may hold",
-                c.width,
-                c.height,
-                MAX_IMAGE_PIXELS / 1_000_000
-            ));
+        if let Some(p) = image_size_problem(c.width, c.height) {
+            return Some(format!("camera: {p}"));
         }
         if c.height_m > MAX_LENGTH_M || self.max_range > MAX_RANGE_M {
             return Some(format!(
