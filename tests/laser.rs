@@ -2,7 +2,9 @@
 //! commands on it, and the shared real logs.
 
 use crate::util::{pirouette, shared};
-use pirouette::eval::laser::{aligned_ate, evaluate_laser, relative_errors};
+use pirouette::eval::laser::{
+    aligned_ate, evaluate_laser, log_trajectories, relative_errors, LogTrajectories,
+};
 use pirouette::geom::Pose2;
 use pirouette::laser::{check_config, register_log, LaserConfig, LoopConfig, RegisteredLog};
 use pirouette::sim::{LogSim, OfficeFloor, Walls};
@@ -72,6 +74,13 @@ fn simulated_log_blind(path: &[Pose2], odometry: bool, seed: u64, blind: std::op
     String::from_utf8(out).expect("text")
 }
 
+/// The log's dead-reckoned poses.
+fn dead_reckoning(log: &std::path::Path) -> Vec<Pose2> {
+    log_trajectories(log)
+        .expect("the log's own trajectories")
+        .dead_reckoning
+}
+
 fn registered(text: &str) -> (tempfile::TempDir, std::path::PathBuf, RegisteredLog) {
     let dir = tempfile::tempdir().expect("temporary folder");
     let path = dir.path().join("sim.log");
@@ -83,12 +92,18 @@ fn registered(text: &str) -> (tempfile::TempDir, std::path::PathBuf, RegisteredL
 #[test]
 fn a_simulated_log_is_mapped_to_its_true_path_and_the_loop_closes() {
     let path = true_path();
-    let (_dir, _log, reg) = registered(&simulated_log(&path, true, 1));
+    let (_dir, log, reg) = registered(&simulated_log(&path, true, 1));
     assert_eq!(reg.scans.len(), path.len());
     let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
-    let dead: Vec<Pose2> = reg.scans.iter().map(|s| s.dead_reckoning).collect();
+    let own = log_trajectories(&log).expect("the log's own trajectories");
+    let dead = own.dead_reckoning;
     // The recorded poses are the true ones, in the first scan's frame.
     let truth: Vec<Pose2> = path.iter().map(|p| path[0].between(p)).collect();
+    assert_eq!(own.recorded.len(), truth.len());
+    for (r, t) in own.recorded.iter().zip(&truth) {
+        let (d, turn) = (r.between(t).translation().norm(), r.between(t).theta.abs());
+        assert!(d < 1e-4 && turn < 1e-4, "recorded {r:?}, true {t:?}");
+    }
     let (ate, ate_dead) = (aligned_ate(&est, &truth), aligned_ate(&dead, &truth));
     let rel = relative_errors(&est, &truth, 1.0);
     assert!(ate < 0.03, "ATE {ate} m");
@@ -126,10 +141,10 @@ fn a_wide_scanner_s_robotlaser_log_of_an_office_floor_maps_to_its_true_path() {
     let mut text = Vec::new();
     let sim = LogSim::hokuyo();
     (sim.write(&mut text, &floor.walls(5), path.iter().copied(), |_| false, 5)).expect("a log in memory");
-    let (_dir, _log, reg) = registered(&String::from_utf8(text).expect("text"));
+    let (_dir, log, reg) = registered(&String::from_utf8(text).expect("text"));
     assert_eq!(reg.scans.len(), path.len());
     let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
-    let dead: Vec<Pose2> = reg.scans.iter().map(|s| s.dead_reckoning).collect();
+    let dead = dead_reckoning(&log);
     let truth: Vec<Pose2> = path.iter().map(|p| path[0].between(p)).collect();
     let (ate, ate_dead) = (aligned_ate(&est, &truth), aligned_ate(&dead, &truth));
     assert!(
@@ -404,8 +419,10 @@ fn shared_intel_log_maps_as_measured() {
     }
     let reg = register_log(&log, &LaserConfig::default(), &|| {}).expect("Intel registers");
     let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
-    let reference: Vec<Pose2> = reg.scans.iter().map(|s| s.recorded).collect();
-    let dead: Vec<Pose2> = reg.scans.iter().map(|s| s.dead_reckoning).collect();
+    let LogTrajectories {
+        recorded: reference,
+        dead_reckoning: dead,
+    } = log_trajectories(&log).expect("Intel's own trajectories");
     let rel = relative_errors(&est, &reference, 1.0);
     let rel_dead = relative_errors(&dead, &reference, 1.0);
     let ate = aligned_ate(&est, &reference);

@@ -121,23 +121,51 @@ fn scores(estimated: &[Pose2], reference: &[Pose2], distances_m: &[f64]) -> Lase
     }
 }
 
+/// A log's own trajectories, one pose per scan in log order, both in the
+/// first scan's frame (as `pirouette map` places the scans).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogTrajectories {
+    /// The poses the log records (its reference, in a corrected log).
+    pub recorded: Vec<Pose2>,
+    /// The poses of the log's odometry alone (dead reckoning); a step
+    /// without odometry counts as standing still.
+    pub dead_reckoning: Vec<Pose2>,
+}
+
+/// Reads `log`'s recorded and dead-reckoned trajectories.
+///
+/// # Errors
+/// A log that cannot be read or holds no laser scan.
+pub fn log_trajectories(log: &Path) -> Result<LogTrajectories> {
+    let mut recorded = Vec::new();
+    let mut dead_reckoning = Vec::new();
+    let mut first = None;
+    for scan in CarmenReader::open(log)? {
+        let scan = scan?;
+        let first = *first.get_or_insert(scan.recorded);
+        let dead = dead_reckoning.last().map_or(Pose2::IDENTITY, |last: &Pose2| {
+            *last * scan.odometry.unwrap_or_default()
+        });
+        dead_reckoning.push(dead);
+        recorded.push(first.between(&scan.recorded));
+    }
+    if recorded.is_empty() {
+        bail!("{}: no laser scan in the log", log.display());
+    }
+    Ok(LogTrajectories {
+        recorded,
+        dead_reckoning,
+    })
+}
+
 /// Scores the map folder `dir` that `pirouette map` wrote for `log`.
 pub fn evaluate_laser(log: &Path, dir: &Path, distances_m: &[f64]) -> Result<LaserReport> {
     let poses_path = dir.join(pirouette_io::map_names::POSES_JSON);
     let records = read_poses(&poses_path)?;
-    // The log's recorded poses and the dead-reckoned ones, by scan.
-    let mut recorded = Vec::new();
-    let mut dead = vec![Pose2::IDENTITY];
-    for scan in CarmenReader::open(log)? {
-        let scan = scan?;
-        if let Some(last) = (!recorded.is_empty()).then(|| dead[dead.len() - 1]) {
-            dead.push(last * scan.odometry.unwrap_or_default());
-        }
-        recorded.push(scan.recorded);
-    }
-    let Some(first) = recorded.first().copied() else {
-        bail!("{}: no laser scan in the log", log.display());
-    };
+    let LogTrajectories {
+        recorded,
+        dead_reckoning: dead,
+    } = log_trajectories(log)?;
     let mut estimated = Vec::with_capacity(records.len());
     let mut reference = Vec::with_capacity(records.len());
     let mut reckoned = Vec::with_capacity(records.len());
@@ -153,7 +181,7 @@ pub fn evaluate_laser(log: &Path, dir: &Path, distances_m: &[f64]) -> Result<Las
             );
         };
         estimated.push(r.pose());
-        reference.push(first.between(rec));
+        reference.push(*rec);
         reckoned.push(dead[scan]);
     }
     if estimated.len() < 2 {

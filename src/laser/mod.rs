@@ -220,10 +220,6 @@ pub struct ScanPose {
     pub t: f64,
     /// Its registered pose in the map frame (the first scan's).
     pub pose: Pose2,
-    /// The pose the log records for it, in the log's frame.
-    pub recorded: Pose2,
-    /// The pose by raw odometry alone, in the map frame.
-    pub dead_reckoning: Pose2,
     /// Whether the log held odometry for the step to it.
     pub odometry: bool,
     /// Whether its registration was trusted (else the prior's mean).
@@ -713,24 +709,16 @@ pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> R
     check_config(config)?;
     let mut m = Mapper::new(config)?;
     let mut meta: Vec<ScanPose> = Vec::new();
-    // The log's frame to the map frame: the first scan's recorded pose.
-    let mut origin = None;
     for scan in CarmenReader::open(path)? {
         let scan = scan?;
         let k = meta.len();
         let label = || format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line);
         // Registered against the local map, the odometry its prior.
         let registered = m.take(k, &scan, &label)?;
-        let origin = *origin.get_or_insert(scan.recorded);
-        let dead_reckoning = meta.last().map_or(Pose2::IDENTITY, |previous| {
-            previous.dead_reckoning * scan.odometry.unwrap_or_default()
-        });
         meta.push(ScanPose {
             scan: scan.scan,
             t: scan.t,
             pose: Pose2::IDENTITY,
-            recorded: origin.between(&scan.recorded),
-            dead_reckoning,
             odometry: scan.odometry.is_some(),
             registered,
         });
