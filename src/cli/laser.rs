@@ -4,7 +4,7 @@ use anyhow::{bail, Result};
 use pirouette::eval::laser::{evaluate_laser, LaserScores};
 use pirouette::geom::Pose2;
 use pirouette::grid::RosMap;
-use pirouette::io::{map_names, write_g2o, write_map_dir, G2oGraph, PoseRecord};
+use pirouette::io::{map_names, write_map_dir, write_pose_graph, PoseRecord};
 use pirouette::laser::{count_scans, map_log, LaserConfig, LaserMap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -101,12 +101,8 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
         bail!("{}: no scan was mapped", log.display());
     }
     write_map_dir(out, &ros, &png, &records)?;
-    let graph = G2oGraph {
-        graph: mapped.registered.graph.clone(),
-        ids: mapped.registered.nodes.iter().map(|&k| k as u64).collect(),
-        has_vertices: true,
-    };
-    write_g2o(&out.join(GRAPH_FILE), &graph)?;
+    let ids: Vec<u64> = mapped.registered.nodes.iter().map(|&k| k as u64).collect();
+    write_pose_graph(&out.join(GRAPH_FILE), &mapped.registered.graph, &ids)?;
     Ok(())
 }
 

@@ -201,26 +201,35 @@ impl Lines {
 /// Writes a pose graph in g2o's format (every vertex, then every edge, with
 /// `ids`' numbering), atomically.
 pub fn write_g2o(path: &Path, g: &G2oGraph) -> Result<(), IoError> {
+    write_pose_graph(path, &g.graph, &g.ids)
+}
+
+/// As [`write_g2o`], for a graph and its vertex ids held apart.
+pub fn write_pose_graph(path: &Path, graph: &PoseGraph, ids: &[u64]) -> Result<(), IoError> {
+    if ids.len() != graph.poses.len() {
+        return Err(IoError::invalid(
+            path,
+            format!("{} vertex ids for {} poses", ids.len(), graph.poses.len()),
+        ));
+    }
     crate::atomic_write_with(path, |w| {
-        for (id, p) in g.ids.iter().zip(&g.graph.poses) {
+        for (id, p) in ids.iter().zip(&graph.poses) {
             writeln!(w, "VERTEX_SE2 {id} {} {} {}", p.x, p.y, p.theta)?;
         }
-        for e in &g.graph.edges {
+        for e in &graph.edges {
             let (z, o) = (e.measurement, e.information);
+            let (Some(from), Some(to)) = (ids.get(e.from), ids.get(e.to)) else {
+                return Err(std::io::Error::other(format!(
+                    "an edge joins poses {} and {} of {}",
+                    e.from,
+                    e.to,
+                    ids.len()
+                )));
+            };
             writeln!(
                 w,
                 "EDGE_SE2 {} {} {} {} {} {} {} {} {} {} {}",
-                g.ids[e.from],
-                g.ids[e.to],
-                z.x,
-                z.y,
-                z.theta,
-                o[0][0],
-                o[0][1],
-                o[0][2],
-                o[1][1],
-                o[1][2],
-                o[2][2]
+                from, to, z.x, z.y, z.theta, o[0][0], o[0][1], o[0][2], o[1][1], o[1][2], o[2][2]
             )?;
         }
         Ok(())
@@ -239,6 +248,20 @@ mod tests {
     }
 
     const EDGE_INFO: &str = "10 0 0 10 0 40";
+
+    #[test]
+    fn a_graph_with_ids_that_do_not_fit_is_not_written() {
+        let (dir, path) = write(&format!(
+            "VERTEX_SE2 5 0 0 0\nVERTEX_SE2 7 1 0.5 0.25\nEDGE_SE2 5 7 1 0.5 0.25 {EDGE_INFO}\n"
+        ));
+        let g = read_g2o(&path).unwrap();
+        let out = dir.path().join("out.g2o");
+        let e = write_pose_graph(&out, &g.graph, &[5]).unwrap_err();
+        assert!(e.to_string().contains("out.g2o") && e.to_string().contains("1 vertex ids for 2 poses"));
+        assert!(!out.exists());
+        write_pose_graph(&out, &g.graph, &g.ids).unwrap();
+        assert_eq!(read_g2o(&out).unwrap(), g);
+    }
 
     #[test]
     fn reads_and_writes_back_the_same_graph() {

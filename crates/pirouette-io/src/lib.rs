@@ -7,7 +7,7 @@
 //! - [`TruthRop`]: a true radial profile of `truth/rop/`.
 //! - [`write_map_dir`], [`read_ros_map`], [`read_poses`], [`PoseRecord`]:
 //!   the folder of a map (ROS `map_server` files, picture, poses).
-//! - [`read_g2o`], [`write_g2o`], [`G2oGraph`]: 2D pose graphs in g2o's
+//! - [`read_g2o`], [`write_g2o`], [`write_pose_graph`], [`G2oGraph`]: 2D pose graphs in g2o's
 //!   text format.
 //! - [`CarmenReader`], [`LaserScan`]: CARMEN laser logs, streamed.
 //! - [`read_place_index`], [`write_place_index`]: place index files
@@ -42,8 +42,8 @@ pub use dataset::{
     FORMAT_VERSION,
 };
 pub use error::IoError;
-pub use g2o::{parse_g2o, read_g2o, write_g2o, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
-pub use map_dir::{names as map_names, read_poses, read_ros_map, tum, write_map_dir, PoseRecord};
+pub use g2o::{parse_g2o, read_g2o, write_g2o, write_pose_graph, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
+pub use map_dir::{names as map_names, read_poses, read_ros_map, write_map_dir, write_tum, PoseRecord};
 pub use places::{
     decode_place_index, read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES,
     PLACE_INDEX_FORMAT, PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,

@@ -75,22 +75,24 @@ impl PoseRecord {
     }
 }
 
-/// The TUM trajectory (`t x y z qx qy qz qw` per line): the record's time,
-/// or its position in the list for camera frames (which carry no time).
-pub fn tum(records: &[PoseRecord]) -> String {
-    let mut out = String::from("# timestamp tx ty tz qx qy qz qw\n");
+/// Writes the TUM trajectory (`t x y z qx qy qz qw` per line) to `w`: the
+/// record's time, or its position in the list for camera frames (which
+/// carry no time).
+pub fn write_tum(w: &mut impl std::io::Write, records: &[PoseRecord]) -> std::io::Result<()> {
+    writeln!(w, "# timestamp tx ty tz qx qy qz qw")?;
     for (k, r) in records.iter().enumerate() {
         let half = r.theta_deg.to_radians() / 2.0;
-        out.push_str(&format!(
-            "{:.6} {:.6} {:.6} 0 0 0 {:.9} {:.9}\n",
+        writeln!(
+            w,
+            "{:.6} {:.6} {:.6} 0 0 0 {:.9} {:.9}",
             r.t.unwrap_or(k as f64),
             r.x,
             r.y,
             half.sin(),
             half.cos()
-        ));
+        )?;
     }
-    out
+    Ok(())
 }
 
 /// Writes a map folder: `map.pgm`, `map.yaml`, `map.png` (given as PNG
@@ -106,7 +108,7 @@ pub fn write_map_dir(
     atomic_write(&dir.join(names::YAML), map.yaml(names::PGM).as_bytes())?;
     atomic_write(&dir.join(names::PNG), picture_png)?;
     write_json(&dir.join(names::POSES_JSON), &poses)?;
-    atomic_write(&dir.join(names::POSES_TUM), tum(poses).as_bytes())
+    crate::atomic_write_with(&dir.join(names::POSES_TUM), |w| write_tum(w, poses))
 }
 
 /// Reads the `map_server` YAML (flat `key: value` lines, `#` comments) and
