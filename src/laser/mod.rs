@@ -12,7 +12,7 @@
 
 use crate::frame::laser_frame;
 use crate::geom::{Point2, Pose2};
-use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
+use crate::graph::{optimise_from, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use crate::grid::{GridConfig, OccupancyGrid};
 use crate::io::{CarmenReader, IoError, LaserScan};
 use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
@@ -376,6 +376,8 @@ struct Mapper<'c> {
     disagree: bool,
     /// Times the graph was solved.
     solves: usize,
+    /// The nodes at the last solve: those stay where it put them.
+    solved_nodes: usize,
 }
 
 /// A loop edge whose squared Mahalanobis residual at the current poses is
@@ -419,6 +421,7 @@ impl<'c> Mapper<'c> {
             unsolved: false,
             disagree: false,
             solves: 0,
+            solved_nodes: 0,
         })
     }
 
@@ -665,8 +668,13 @@ impl<'c> Mapper<'c> {
         Ok(!found.is_empty())
     }
 
-    /// Solves the pose graph of the scans so far, drops the loop edges the
-    /// solution contradicts and solves again; the poses follow.
+    /// Solves the pose graph for the nodes added since the last solve (the
+    /// poses before stay where it put them: they agreed with every loop
+    /// then), reaching further back where the correction wants more of the
+    /// path (see [`Nodes::solve_from`]); drops the loop edges the solution
+    /// contradicts and solves that part again; the poses follow. A solve's
+    /// time and memory then grow with the part a loop moves, not with the
+    /// log.
     fn optimise(&mut self) {
         let config = OptimiseConfig {
             max_iterations: 20,
@@ -674,10 +682,15 @@ impl<'c> Mapper<'c> {
         };
         self.solves += 1;
         // A graph that cannot be solved keeps its poses.
-        let graph = &mut self.nodes.graph;
-        if optimise(graph, &config).is_err() {
+        let kept: Vec<usize> = (self.loops.iter())
+            .filter(|(l, _)| l.kept)
+            .map(|&(_, e)| e)
+            .collect();
+        let gates = (SOLVE_GATE, EDGE_GATE);
+        let Ok(first_free) = self.nodes.solve_from(self.solved_nodes, &kept, gates, &config) else {
             return;
-        }
+        };
+        let graph = &mut self.nodes.graph;
         let mut dropped = false;
         for (closure, e) in self.loops.iter_mut().filter(|(l, _)| l.kept) {
             let edge = &graph.edges[*e];
@@ -691,9 +704,11 @@ impl<'c> Mapper<'c> {
         // Solved again without them (where that fails, the first solution
         // stands).
         if dropped {
-            let _ = optimise(graph, &config);
+            let _ = optimise_from(graph, first_free, &config);
         }
-        for (p, q) in self.poses.iter_mut().zip(self.nodes.poses()) {
+        self.solved_nodes = graph.poses.len();
+        let (first, moved) = self.nodes.poses_from(first_free);
+        for (p, q) in self.poses[first..].iter_mut().zip(moved) {
             *p = q;
         }
         self.unsolved = false;
