@@ -12,7 +12,7 @@
 
 use crate::frame::laser_frame;
 use crate::geom::{Point2, Pose2};
-use crate::graph::{optimise_from, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
+use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use crate::grid::{GridConfig, OccupancyGrid};
 use crate::io::{CarmenReader, IoError, LaserScan};
 use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
@@ -376,8 +376,6 @@ struct Mapper<'c> {
     disagree: bool,
     /// Times the graph was solved.
     solves: usize,
-    /// The nodes at the last solve: those stay where it put them.
-    solved_nodes: usize,
 }
 
 /// A loop edge whose squared Mahalanobis residual at the current poses is
@@ -421,7 +419,6 @@ impl<'c> Mapper<'c> {
             unsolved: false,
             disagree: false,
             solves: 0,
-            solved_nodes: 0,
         })
     }
 
@@ -668,13 +665,8 @@ impl<'c> Mapper<'c> {
         Ok(!found.is_empty())
     }
 
-    /// Solves the pose graph for the nodes added since the last solve (the
-    /// poses before stay where it put them: they agreed with every loop
-    /// then), reaching further back where the correction wants more of the
-    /// path (see [`Nodes::solve_from`]); drops the loop edges the solution
-    /// contradicts and solves that part again; the poses follow. A solve's
-    /// time and memory then grow with the part a loop moves, not with the
-    /// log.
+    /// Solves the pose graph of the scans so far, drops the loop edges the
+    /// solution contradicts and solves again; the poses follow.
     fn optimise(&mut self) {
         let config = OptimiseConfig {
             max_iterations: 20,
@@ -682,15 +674,10 @@ impl<'c> Mapper<'c> {
         };
         self.solves += 1;
         // A graph that cannot be solved keeps its poses.
-        let kept: Vec<usize> = (self.loops.iter())
-            .filter(|(l, _)| l.kept)
-            .map(|&(_, e)| e)
-            .collect();
-        let gates = (SOLVE_GATE, EDGE_GATE);
-        let Ok(first_free) = self.nodes.solve_from(self.solved_nodes, &kept, gates, &config) else {
-            return;
-        };
         let graph = &mut self.nodes.graph;
+        if optimise(graph, &config).is_err() {
+            return;
+        }
         let mut dropped = false;
         for (closure, e) in self.loops.iter_mut().filter(|(l, _)| l.kept) {
             let edge = &graph.edges[*e];
@@ -704,11 +691,9 @@ impl<'c> Mapper<'c> {
         // Solved again without them (where that fails, the first solution
         // stands).
         if dropped {
-            let _ = optimise_from(graph, first_free, &config);
+            let _ = optimise(graph, &config);
         }
-        self.solved_nodes = graph.poses.len();
-        let (first, moved) = self.nodes.poses_from(first_free);
-        for (p, q) in self.poses[first..].iter_mut().zip(moved) {
+        for (p, q) in self.poses.iter_mut().zip(self.nodes.poses()) {
             *p = q;
         }
         self.unsolved = false;

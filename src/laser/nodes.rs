@@ -5,7 +5,7 @@
 //! nodes, not its scans.
 
 use crate::geom::Pose2;
-use crate::graph::{optimise_from, Edge as GraphEdge, GraphError, OptimiseConfig, PoseGraph};
+use crate::graph::{Edge as GraphEdge, PoseGraph};
 use crate::mapping::graph::Edge as MeasuredEdge;
 use nalgebra::Matrix3;
 
@@ -20,8 +20,6 @@ pub(super) struct Nodes {
     /// Each node's pose in the frame of the node before, as the steps
     /// between them measured it.
     span: Vec<Pose2>,
-    /// The edge of the steps into node `m`, at `m − 1` (node 0 has none).
-    step_edges: Vec<usize>,
     /// Per scan: the node it hangs from (its own, for a node) ...
     anchor: Vec<u32>,
     /// ... and its pose in that node's frame.
@@ -38,7 +36,6 @@ impl Nodes {
             graph: PoseGraph::new(vec![Pose2::IDENTITY]),
             scans: vec![0],
             span: vec![Pose2::IDENTITY],
-            step_edges: Vec::new(),
             anchor: vec![0],
             offset: vec![Pose2::IDENTITY],
             chain: (Pose2::IDENTITY, Matrix3::zeros()),
@@ -80,7 +77,6 @@ impl Nodes {
                 info: 0.5 * (info + info.transpose()),
             };
             self.graph.poses.push(pose);
-            self.step_edges.push(self.graph.edges.len());
             self.graph.edges.push(edge.to_graph());
             self.scans.push(self.anchor.len());
             self.span.push(composed);
@@ -110,85 +106,27 @@ impl Nodes {
         Some(self.graph.edges.len() - 1)
     }
 
-    /// Solves the graph for the nodes from `first` on, those before held
-    /// where they are. Where the solution leaves the steps into the first
-    /// node solved disagreeing with the node held before it (their χ²
-    /// above `gate`, and above what it was), or leaves one of `loops` (edge
-    /// indices) that reaches a node solved above `drop_gate`, the
-    /// correction wanted more of the path than was solved: the part solved
-    /// doubles backwards and is solved again, up to the whole graph. The
-    /// first node solved.
-    ///
-    /// # Errors
-    /// A graph the optimiser refuses.
-    pub fn solve_from(
-        &mut self,
-        mut first: usize,
-        loops: &[usize],
-        (gate, drop_gate): (f64, f64),
-        config: &OptimiseConfig,
-    ) -> Result<usize, GraphError> {
-        let nodes = self.graph.poses.len();
-        let chi2 = |graph: &PoseGraph, e: usize| {
-            let e = &graph.edges[e];
-            e.chi2(&graph.poses[e.from], &graph.poses[e.to])
-        };
-        loop {
-            let into = first.checked_sub(1).and_then(|m| self.step_edges.get(m)).copied();
-            let before = into.map(|e| chi2(&self.graph, e));
-            optimise_from(&mut self.graph, first, config)?;
-            if first == 0 {
-                return Ok(0);
-            }
-            let strained = into.is_some_and(|e| chi2(&self.graph, e) > gate.max(before.unwrap_or(0.0)));
-            let refused = loops.iter().any(|&e| {
-                let edge = &self.graph.edges[e];
-                edge.from.max(edge.to) >= first && chi2(&self.graph, e) > drop_gate
-            });
-            if !strained && !refused {
-                return Ok(first);
-            }
-            first = first.saturating_sub((nodes - first).max(1));
-        }
-    }
-
     /// Every scan's pose from the nodes' (after a solve): a scan between
     /// two nodes at its offset from each, blended by its place between
     /// them, so that the two nodes' disagreement with the steps between
     /// them is spread along the steps instead of falling on the last.
-    #[cfg(test)]
     pub fn poses(&self) -> impl Iterator<Item = Pose2> + '_ {
-        self.poses_from(0).1
-    }
-
-    /// The poses of [`Nodes::poses`] of the scans that a solve moving the
-    /// nodes from `node` on moves: the first such scan, and theirs.
-    pub fn poses_from(&self, node: usize) -> (usize, impl Iterator<Item = Pose2> + '_) {
         let poses = &self.graph.poses;
-        // The scans after the node before `node` blend towards `node`.
-        let first = self
-            .scans
-            .get(node.saturating_sub(1))
-            .map_or(self.anchor.len(), |&k| k);
-        let scans = (self.anchor.iter().zip(&self.offset).enumerate()).skip(first);
-        (
-            first,
-            scans.map(move |(k, (&a, o))| {
-                let a = a as usize;
-                let from_a = poses[a] * *o;
-                let Some(&b_scan) = self.scans.get(a + 1) else {
-                    return from_a;
-                };
-                let from_b = poses[a + 1] * self.span[a + 1].inverse() * *o;
-                let f = (k - self.scans[a]) as f64 / (b_scan - self.scans[a]) as f64;
-                let turn = crate::geom::wrap_angle(from_b.theta - from_a.theta);
-                Pose2::new(
-                    from_a.x + f * (from_b.x - from_a.x),
-                    from_a.y + f * (from_b.y - from_a.y),
-                    crate::geom::wrap_angle(from_a.theta + f * turn),
-                )
-            }),
-        )
+        (self.anchor.iter().zip(&self.offset).enumerate()).map(move |(k, (&a, o))| {
+            let a = a as usize;
+            let from_a = poses[a] * *o;
+            let Some(&b_scan) = self.scans.get(a + 1) else {
+                return from_a;
+            };
+            let from_b = poses[a + 1] * self.span[a + 1].inverse() * *o;
+            let f = (k - self.scans[a]) as f64 / (b_scan - self.scans[a]) as f64;
+            let turn = crate::geom::wrap_angle(from_b.theta - from_a.theta);
+            Pose2::new(
+                from_a.x + f * (from_b.x - from_a.x),
+                from_a.y + f * (from_b.y - from_a.y),
+                crate::geom::wrap_angle(from_a.theta + f * turn),
+            )
+        })
     }
 }
 
@@ -288,55 +226,6 @@ mod tests {
             assert!((after[k].y - (from_a.y + f * (from_b.y - from_a.y))).abs() < 1e-9);
             // And the nodes' disagreement is real: the blend moves it.
             assert!(from_a.between(&from_b).translation().norm() > 1e-6);
-        }
-        // A solve from node 2 (scan 8) on moves the scans from scan 4 (the
-        // node before, whose scans blend towards node 2): the same poses.
-        let (first, moved) = n.poses_from(2);
-        assert_eq!(first, 4);
-        assert_eq!(moved.collect::<Vec<_>>(), after[4..].to_vec());
-        assert_eq!(n.poses_from(0).0, 0);
-    }
-
-    /// The square of [`a_solve_moves_the_scans_between_nodes_with_them`],
-    /// its 5 nodes unsolved.
-    fn square() -> Nodes {
-        let mut n = Nodes::new();
-        let mut pose = Pose2::IDENTITY;
-        for k in 1..=16 {
-            let turn = if k % 4 == 0 && k < 16 { 1.5 } else { 0.0 };
-            let step = Pose2::new(1.0, 0.0, turn);
-            pose = pose * step;
-            n.step(&step, &cov(0.01, 0.01), pose, k % 4 == 0);
-        }
-        n
-    }
-
-    #[test]
-    fn a_solve_reaches_back_as_far_as_the_correction_wants() {
-        let info = [[1e4, 0.0, 0.0], [0.0, 1e4, 0.0], [0.0, 0.0, 1e4]];
-        let config = OptimiseConfig::default();
-        let gates = (7.81, 16.27);
-        // A loop that agrees with the poses: the last node alone is solved
-        // and the others stay exactly.
-        let mut n = square();
-        let z = n.graph.poses[0].between(&n.graph.poses[4]);
-        let e = n.add(GraphEdge::new(0, 16, z, info)).expect("nodes");
-        let before = n.graph.poses.clone();
-        assert_eq!(n.solve_from(4, &[e], gates, &config).expect("solved"), 4);
-        assert_eq!(&n.graph.poses[..4], &before[..4]);
-        // A loop back to the start (the turns a little short): the last
-        // node alone cannot take the correction, so the solve reaches back
-        // to the whole square and ends where solving it all does (to the
-        // optimiser's stopping rule: a millimetre).
-        let mut n = square();
-        let e = n
-            .add(GraphEdge::new(16, 0, Pose2::IDENTITY, info))
-            .expect("nodes");
-        let mut whole = n.graph.clone();
-        optimise(&mut whole, &config).expect("solved");
-        assert_eq!(n.solve_from(4, &[e], gates, &config).expect("solved"), 0);
-        for (p, q) in n.graph.poses.iter().zip(&whole.poses) {
-            assert!(p.between(q).translation().norm() < 1e-3, "{p:?} vs {q:?}");
         }
     }
 }

@@ -45,9 +45,7 @@ mod solve;
 mod sparse;
 pub mod synthetic;
 
-pub use solve::{
-    marginal_covariances, optimise, optimise_from, GaussNewton, OptimiseConfig, Solver, Summary,
-};
+pub use solve::{marginal_covariances, optimise, GaussNewton, OptimiseConfig, Solver, Summary};
 
 use pirouette_geom::{wrap_angle, Pose2};
 

@@ -69,10 +69,8 @@ type EdgeBlocks = [Option<(BlockAt, (usize, usize))>; 3];
 /// edge's block positions, and the gradient.
 struct Normal {
     system: BlockSystem<3>,
-    /// The edges with a free end (the others are constant).
-    edges: Vec<usize>,
-    /// Per edge of `edges`: the blocks `(from, from)`, `(to, to)`,
-    /// `(from, to)`, each `None` where a pose is held.
+    /// Per edge: the blocks `(from, from)`, `(to, to)`, `(from, to)`, each
+    /// `None` where a pose is held.
     blocks: Vec<EdgeBlocks>,
     /// Unknown index of each pose (`None` for the held one).
     unknown: Vec<Option<usize>>,
@@ -80,30 +78,24 @@ struct Normal {
 }
 
 impl Normal {
-    /// The system of `graph`'s poses from `first_free` on (but the held
-    /// one): those before stay where they are.
-    fn new(graph: &PoseGraph, first_free: usize) -> Result<Self, GraphError> {
-        let mut n = 0;
+    fn new(graph: &PoseGraph) -> Result<Self, GraphError> {
         let unknown: Vec<Option<usize>> = (0..graph.poses.len())
-            .map(|p| {
-                (p >= first_free && p != graph.held).then(|| {
-                    n += 1;
-                    n - 1
-                })
+            .map(|p| match p.cmp(&graph.held) {
+                std::cmp::Ordering::Less => Some(p),
+                std::cmp::Ordering::Equal => None,
+                std::cmp::Ordering::Greater => Some(p - 1),
             })
             .collect();
-        let edges: Vec<usize> = (graph.edges.iter().enumerate())
-            .filter(|(_, e)| unknown[e.from].is_some() || unknown[e.to].is_some())
-            .map(|(k, _)| k)
-            .collect();
-        let pairs = (edges.iter()).filter_map(|&k| {
-            let e = &graph.edges[k];
-            Some((unknown[e.from]?, unknown[e.to]?))
-        });
+        let n = graph.poses.len().saturating_sub(1);
+        let pairs = graph
+            .edges
+            .iter()
+            .filter_map(|e| Some((unknown[e.from]?, unknown[e.to]?)));
         let system = BlockSystem::<3>::new(n, pairs)?;
-        let blocks = (edges.iter())
-            .map(|&k| {
-                let e = &graph.edges[k];
+        let blocks = graph
+            .edges
+            .iter()
+            .map(|e| {
                 let (a, b) = (unknown[e.from], unknown[e.to]);
                 let block = |r: Option<usize>, c: Option<usize>| -> Option<(BlockAt, (usize, usize))> {
                     let (r, c) = (r?, c?);
@@ -115,7 +107,6 @@ impl Normal {
         Ok(Self {
             gradient: vec![0.0; system.dim()],
             system,
-            edges,
             blocks,
             unknown,
         })
@@ -126,8 +117,7 @@ impl Normal {
     fn linearise(&mut self, graph: &PoseGraph, poses: &[Pose2]) {
         self.system.clear();
         self.gradient.iter_mut().for_each(|g| *g = 0.0);
-        for (&k, blocks) in self.edges.iter().zip(&self.blocks) {
-            let e = &graph.edges[k];
+        for (e, blocks) in graph.edges.iter().zip(&self.blocks) {
             let (r, ji, jj) = e.linearise_in(graph.residual, &poses[e.from], &poses[e.to]);
             let (_, w) = e.kernel.cost_and_weight(quadratic(&e.information, &r));
             let omega = e.information.map(|row| row.map(|v| v * w));
@@ -195,11 +185,12 @@ const LAMBDA_FACTOR: f64 = 10.0;
 /// small to matter: the iteration stops there.
 const LAMBDA_MAX: f64 = 1e10;
 
-/// The robust cost of `graph`'s edges `edges` at `poses`.
-fn cost_at(graph: &PoseGraph, edges: &[usize], poses: &[Pose2]) -> f64 {
-    (edges.iter())
-        .map(|&k| {
-            let e = &graph.edges[k];
+/// The robust cost of `graph`'s edges at `poses`.
+fn cost_at(graph: &PoseGraph, poses: &[Pose2]) -> f64 {
+    graph
+        .edges
+        .iter()
+        .map(|e| {
             e.kernel
                 .cost_and_weight(e.cost_in(graph.residual, &poses[e.from], &poses[e.to]))
                 .0
@@ -215,29 +206,11 @@ fn cost_at(graph: &PoseGraph, edges: &[usize], poses: &[Pose2]) -> f64 {
 /// A graph that fails [`PoseGraph::check`], or a system that is not
 /// positive definite (a pose tied to the held one by no chain of edges).
 pub fn optimise(graph: &mut PoseGraph, config: &OptimiseConfig) -> Result<Summary, GraphError> {
-    optimise_from(graph, 0, config)
-}
-
-/// As [`optimise`], moving only the poses from `first_free` on (and never
-/// the held one): those before stay where they are, and only the edges
-/// that reach a pose that moves are linearised. A graph that grows at its
-/// end, already solved before it, is solved again in time and memory that
-/// grow with the part added, not with the whole. The cost it reports is
-/// that of those edges (the others' is constant).
-///
-/// # Errors
-/// As [`optimise`]; also a pose that moves but is tied to no pose that
-/// stays.
-pub fn optimise_from(
-    graph: &mut PoseGraph,
-    first_free: usize,
-    config: &OptimiseConfig,
-) -> Result<Summary, GraphError> {
     graph.check()?;
     let chi2_initial = graph.chi2();
-    let mut normal = Normal::new(graph, first_free)?;
+    let mut normal = Normal::new(graph)?;
     let mut poses = graph.poses.clone();
-    let mut cost = cost_at(graph, &normal.edges, &poses);
+    let mut cost = cost_at(graph, &poses);
     // Levenberg-Marquardt's damping and its ceiling, set at the first
     // linearisation from the normal matrix's mean diagonal.
     let mut lambda: Option<f64> = None;
@@ -268,7 +241,7 @@ pub fn optimise_from(
             let mut delta = Mat::from_fn(n, 1, |i, _| -normal.gradient[i]);
             factor?.solve(&mut delta);
             let candidate = normal.step(&poses, &delta);
-            let new_cost = cost_at(graph, &normal.edges, &candidate);
+            let new_cost = cost_at(graph, &candidate);
             if config.solver == Solver::GaussNewton || new_cost < cost {
                 converged = small(cost, new_cost);
                 poses = candidate;
@@ -312,7 +285,7 @@ impl GaussNewton {
     pub fn new(graph: &PoseGraph) -> Result<Self, GraphError> {
         graph.check()?;
         Ok(Self {
-            normal: Normal::new(graph, 0)?,
+            normal: Normal::new(graph)?,
         })
     }
 
@@ -335,7 +308,7 @@ impl GaussNewton {
 /// (its own covariance is zero).
 pub fn marginal_covariances(graph: &PoseGraph, which: &[usize]) -> Result<Vec<[[f64; 3]; 3]>, GraphError> {
     graph.check()?;
-    let mut normal = Normal::new(graph, 0)?;
+    let mut normal = Normal::new(graph)?;
     normal.linearise(graph, &graph.poses);
     let factor = normal.system.factor()?;
     let n = normal.system.dim();
@@ -438,35 +411,6 @@ mod tests {
         let mut again = graph.clone();
         optimise(&mut again, &OptimiseConfig::default()).unwrap();
         assert!(again.chi2() >= before * (1.0 - 1e-6));
-    }
-
-    #[test]
-    fn a_solve_from_a_pose_moves_only_those_after_it_to_the_same_minimum() {
-        let (mut graph, _) = grid_world(200, 6);
-        init::chain(&mut graph).unwrap();
-        let config = OptimiseConfig::default();
-        // The poses before 120 where the whole graph puts them ...
-        let mut whole = graph.clone();
-        optimise(&mut whole, &config).unwrap();
-        let mut part = graph.clone();
-        part.poses[..120].copy_from_slice(&whole.poses[..120]);
-        let held_part = part.poses[..120].to_vec();
-        let summary = optimise_from(&mut part, 120, &config).unwrap();
-        // ... stay there exactly, and those after reach the whole graph's
-        // minimum: with the rest fixed at it, that is the minimum over them.
-        assert_eq!(&part.poses[..120], &held_part[..]);
-        assert!(summary.converged, "{summary:?}");
-        for (p, q) in part.poses.iter().zip(&whole.poses).skip(120) {
-            let d = p.between(q);
-            assert!(d.x.hypot(d.y) < 1e-5 && d.theta.abs() < 1e-6, "{p:?} vs {q:?}");
-        }
-        // The cost reported is of the edges that reach a moving pose.
-        let reached: f64 = (part.edges.iter())
-            .filter(|e| e.from >= 120 || e.to >= 120)
-            .map(|e| e.chi2(&part.poses[e.from], &part.poses[e.to]))
-            .sum();
-        assert!((summary.cost_final - reached).abs() <= 1e-9 * reached.max(1.0));
-        assert!(summary.cost_final < part.chi2());
     }
 
     #[test]
