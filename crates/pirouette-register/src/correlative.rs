@@ -478,13 +478,22 @@ fn bounded(
         nx: lattice.nx,
         ny: lattice.ny,
     };
-    // Every rotation's endpoint cells, and the cells the search can reach
-    // from them: the pyramid's block.
-    let cells: Vec<Vec<(i64, i64)>> = (-nt..=nt).into_par_iter().map(cells_at).collect();
-    let (lo, hi) = cells.iter().flatten().fold(
-        ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN)),
-        |(lo, hi), &(i, j)| ((lo.0.min(i), lo.1.min(j)), (hi.0.max(i), hi.1.max(j))),
-    );
+    // The cells every rotation's endpoints fall in, and those the search
+    // can reach from them: the pyramid's block. A rotation's cells are
+    // made again for its search rather than all held at once (a wide
+    // search turns through hundreds of rotations: tens of megabytes).
+    let empty = ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN));
+    let (lo, hi) = (-nt..=nt)
+        .into_par_iter()
+        .map(|kt| {
+            cells_at(kt).iter().fold(empty, |(lo, hi), &(i, j)| {
+                ((lo.0.min(i), lo.1.min(j)), (hi.0.max(i), hi.1.max(j)))
+            })
+        })
+        .reduce(
+            || empty,
+            |(lo, hi), (l, h)| ((lo.0.min(l.0), lo.1.min(l.1)), (hi.0.max(h.0), hi.1.max(h.1))),
+        );
     if lo.0 > hi.0 {
         return (Vec::new(), 0);
     }
@@ -515,8 +524,8 @@ fn bounded(
             form,
             res: lattice.res,
         };
-        let cells = &cells[(kt + nt) as usize];
-        search_rotation(&pyramid, cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
+        let cells = cells_at(kt);
+        search_rotation(&pyramid, &cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
             .into_iter()
             .map(|k| (kt, k))
             .collect()
