@@ -93,10 +93,9 @@ fn bad_input_is_a_one_line_error_naming_the_file() {
 }
 
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn camera_report_shows_models_agree_near_and_diverge_far() {
-    let Some(shared) = shared("camera_report_shows_models_agree_near_and_diverge_far") else {
-        return;
-    };
+    let shared = shared();
     let ds = shared.join("datasets").join("field-pirouette");
     let out = pirouette(&["camera", ds.to_str().unwrap(), "--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

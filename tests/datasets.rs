@@ -23,10 +23,9 @@ fn load_all(root: &Path) -> usize {
 }
 
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn shared_datasets_load() {
-    let Some(shared) = shared("shared_datasets_load") else {
-        return;
-    };
+    let shared = shared();
     let sets = shared_datasets(&shared);
     assert!(
         sets.len() >= 6,

@@ -17,10 +17,9 @@ fn stats(out: &std::process::Output) -> serde_json::Value {
 /// poses: intel 45.0048 (GTSAM's Levenberg-Marquardt, scored as g2o scores
 /// it); M3500 3549.04 (Gauss-Newton in g2o's residual).
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn the_standard_graphs_reach_the_known_minima() {
-    let Some(shared) = shared("the_standard_graphs_reach_the_known_minima") else {
-        return;
-    };
+    let shared = shared();
     let dir = tempfile::tempdir().unwrap();
     for (name, known) in [("intel", 45.0048), ("manhattan", 3549.04)] {
         let input = shared.join(format!("posegraph/{name}.g2o"));

@@ -408,15 +408,11 @@ fn bad_laser_logs_are_refused_naming_the_file() {
 }
 
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn shared_intel_log_maps_as_measured() {
-    let Some(shared) = shared("shared_intel_log_maps_as_measured") else {
-        return;
-    };
+    let shared = shared();
     let log = shared.join("laser/intel-corrected.log");
-    if !log.is_file() {
-        eprintln!("skipped: {} is missing", log.display());
-        return;
-    }
+    assert!(log.is_file(), "{} is missing", log.display());
     let reg = register_log(&log, &LaserConfig::default(), &|| {}).expect("Intel registers");
     let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
     let LogTrajectories {

@@ -240,10 +240,9 @@ fn a_single_pirouette_anchors_its_frames_on_each_other() {
 }
 
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn shared_datasets_map_far_better_than_the_commands() {
-    let Some(shared) = shared("shared_datasets_map_far_better_than_the_commands") else {
-        return;
-    };
+    let shared = shared();
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
     // The targets: ATE within 2 cm on the field and 4 cm in the

@@ -34,10 +34,9 @@ fn scores(root: &Path, model: ModelKind) -> ProfileScores {
 }
 
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn shared_datasets_profiles_match_truth() {
-    let Some(shared) = shared("shared_datasets_profiles_match_truth") else {
-        return;
-    };
+    let shared = shared();
     let sets = shared_datasets(&shared);
     assert!(sets.len() >= 6);
     for root in sets {

@@ -29,10 +29,9 @@ fn scores(root: &Path) -> SweepScores {
 }
 
 #[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn verified_turns_are_accurate_and_wrong_ones_are_flagged() {
-    let Some(shared) = shared("verified_turns_are_accurate_and_wrong_ones_are_flagged") else {
-        return;
-    };
+    let shared = shared();
     for root in shared_datasets(&shared) {
         let name = root.file_name().unwrap().to_string_lossy().to_string();
         let s = scores(&root);

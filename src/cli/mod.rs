@@ -21,6 +21,7 @@ mod places;
 mod plots;
 mod profile;
 mod render;
+mod suite;
 mod sweep;
 
 /// Maps from a cheap camera: Radial Obstacle Profiles, vision-based
@@ -62,6 +63,10 @@ enum Command {
     /// Evaluate results against ground truth.
     #[command(subcommand)]
     Eval(EvalCommand),
+    /// Run a command and record its wall time, CPU time and peak memory
+    /// (used by `eval suite`).
+    #[command(hide = true)]
+    Measure(suite::MeasureArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -112,6 +117,12 @@ enum EvalCommand {
     /// translation and rotation errors between scans 1 m and 10 m apart
     /// along the path, with dead reckoning from the raw odometry beside.
     Laser(laser::EvalLaserArgs),
+    /// The scoreboard: every case of the corpus (datasets/corpus.toml),
+    /// its figures, time and peak memory against its targets, worst first;
+    /// per kind the worst case, the median and the cases short of target;
+    /// with --base, another build side by side (speed ratios, figures that
+    /// got worse). Writes OUT/scoreboard.json and OUT/scoreboard.md.
+    Suite(suite::SuiteArgs),
 }
 
 /// Runs the command line.
@@ -134,6 +145,8 @@ pub fn run() -> Result<()> {
         Command::Eval(EvalCommand::Map(a)) => map::eval_map(a),
         Command::Eval(EvalCommand::Places(a)) => places::eval_places(a),
         Command::Eval(EvalCommand::Laser(a)) => laser::eval_laser(a),
+        Command::Eval(EvalCommand::Suite(a)) => suite::suite(a),
+        Command::Measure(a) => suite::measure(a),
     }
 }
 

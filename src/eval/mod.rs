@@ -4,6 +4,7 @@
 
 pub mod laser;
 pub mod map;
+pub mod suite;
 
 use pirouette_camera::CameraModel;
 use pirouette_geom::Pose2;

@@ -260,7 +260,9 @@ impl Renderer {
                     * (1.0 - look.vignetting * (su * su + sv * sv) / 2.0).max(0.05)
                     * (1.0 - look.corner_darkening * below * below * su * su).max(0.05);
                 for k in 0..3 {
-                    row[u * 3 + k] = (acc[k] * gain + noise.sample(&mut rng)).round().clamp(0.0, 255.0) as u8;
+                    row[u * 3 + k] = (acc[k] * gain * look.light_rgb[k] + noise.sample(&mut rng))
+                        .round()
+                        .clamp(0.0, 255.0) as u8;
                 }
             }
         });

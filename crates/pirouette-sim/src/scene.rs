@@ -34,6 +34,9 @@ pub const MAX_WAYPOINTS: usize = 10_000;
 /// The most frames a sweep may have.
 pub const MAX_FRAMES_PER_SWEEP: u32 = 360;
 
+/// The largest light gain (`exposure`, each of `light_rgb`).
+pub const MAX_LIGHT_GAIN: f64 = 10.0;
+
 /// The most floor specks a scene may scatter.
 pub const MAX_SPECKS: usize = 1_000_000;
 
@@ -134,6 +137,9 @@ pub struct Look {
     pub ambient: f64,
     /// Overall brightness gain.
     pub exposure: f64,
+    /// Colour of the light: a gain per channel (red, green, blue) on top
+    /// of `exposure`; white light is `[1, 1, 1]`.
+    pub light_rgb: [f64; 3],
     /// Darkening towards the image edges (0 none, 1 black at the corners).
     pub vignetting: f64,
     /// Extra darkening of the bottom corners (the paper's Fig. 1).
@@ -157,6 +163,7 @@ impl Default for Look {
             light_dir: [0.4, 0.3, 1.0],
             ambient: 0.45,
             exposure: 1.0,
+            light_rgb: [1.0; 3],
             vignetting: 0.6,
             corner_darkening: 0.6,
             floor_variation: 0.12,
@@ -334,6 +341,16 @@ impl Scene {
         let [x0, y0, x1, y1] = self.world.bounds;
         let specks = ((x1 - x0) * (y1 - y0)).abs() * l.specks_per_m2;
         let noise_ok = (0.0..=255.0).contains(&l.noise_sigma);
+        if !(l
+            .light_rgb
+            .iter()
+            .chain([&l.exposure])
+            .all(|g| (0.0..=MAX_LIGHT_GAIN).contains(g)))
+        {
+            return Some(format!(
+                "look: exposure and light_rgb gains within 0-{MAX_LIGHT_GAIN}"
+            ));
+        }
         let specks_ok = (0.0..=MAX_SPECKS as f64).contains(&specks);
         (!(noise_ok && specks_ok)).then(|| {
             format!("look: noise_sigma within 0-255 levels and at most {MAX_SPECKS} specks over the world's bounds")
