@@ -6,6 +6,7 @@ use pirouette::eval::laser::{
     aligned_ate, evaluate_laser, log_trajectories, relative_errors, LogTrajectories,
 };
 use pirouette::geom::Pose2;
+use pirouette::io::BagOptions;
 use pirouette::laser::{check_config, register_log, LaserConfig, LoopConfig, RegisteredLog};
 use pirouette::sim::{LogSim, OfficeFloor, Walls};
 
@@ -85,7 +86,8 @@ fn registered(text: &str) -> (tempfile::TempDir, std::path::PathBuf, RegisteredL
     let dir = tempfile::tempdir().expect("temporary folder");
     let path = dir.path().join("sim.log");
     std::fs::write(&path, text).expect("write the log");
-    let reg = register_log(&path, &LaserConfig::default(), &|| {}).expect("registered");
+    let reg =
+        register_log(&path, &LaserConfig::default(), &BagOptions::default(), &|| {}).expect("registered");
     (dir, path, reg)
 }
 
@@ -216,7 +218,7 @@ fn the_place_index_closes_loops_the_estimate_has_lost() {
         },
         ..LaserConfig::default()
     };
-    let lost = register_log(&log, &config, &|| {}).expect("registered");
+    let lost = register_log(&log, &config, &BagOptions::default(), &|| {}).expect("registered");
     let est: Vec<Pose2> = lost.scans.iter().map(|s| s.pose).collect();
     let ate_lost = aligned_ate(&pick(&est), &pick(&truth));
     assert!(
@@ -261,7 +263,7 @@ fn absurd_laser_settings_are_refused_before_reading() {
 fn a_log_without_odometry_is_matched_without_a_motion_prior() {
     let path = true_path();
     let (_dir, _log, reg) = registered(&simulated_log(&path, false, 2));
-    assert!(reg.scans.iter().skip(1).all(|s| !s.odometry));
+    assert!(reg.scans.iter().skip(1).all(|s| s.odometry.is_none()));
     let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
     let truth: Vec<Pose2> = path.iter().map(|p| path[0].between(p)).collect();
     let rel = relative_errors(&est, &truth, 1.0);
@@ -413,8 +415,10 @@ fn shared_intel_log_maps_as_measured() {
     let shared = shared();
     let log = shared.join("laser/intel-corrected.log");
     assert!(log.is_file(), "{} is missing", log.display());
-    let reg = register_log(&log, &LaserConfig::default(), &|| {}).expect("Intel registers");
-    let est: Vec<Pose2> = reg.scans.iter().map(|s| s.pose).collect();
+    let reg =
+        register_log(&log, &LaserConfig::default(), &BagOptions::default(), &|| {}).expect("Intel registers");
+    // Every scan, those the motion filter skipped interpolated.
+    let est: Vec<Pose2> = reg.every_scan().iter().map(|&(_, _, p)| p).collect();
     let LogTrajectories {
         recorded: reference,
         dead_reckoning: dead,

@@ -2,6 +2,7 @@
 
 mod util;
 
+mod bags;
 mod cli;
 mod datasets;
 mod graph;

@@ -2,9 +2,14 @@
 
 use anyhow::{bail, Result};
 use pirouette::eval::laser::{evaluate_laser, LaserScores};
+use pirouette::eval::relations::{score_relations, MATCH_WINDOW_S};
 use pirouette::geom::Pose2;
 use pirouette::grid::RosMap;
-use pirouette::io::{map_names, write_map_dir, write_pose_graph, PoseRecord};
+use pirouette::io::bag::{log_kind, LogKind};
+use pirouette::io::{
+    map_names, read_relations, read_tum, write_map_dir, write_pose_graph, write_tum, BagOptions,
+    OdometrySource, PoseRecord,
+};
 use pirouette::laser::{count_scans, map_log, LaserConfig, LaserMap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,47 +27,90 @@ fn peak_memory_bytes() -> Option<u64> {
 }
 
 /// Maps a laser log into `out`, with a progress bar and a summary.
-pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
+pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Result<()> {
     pirouette::laser::check_config(config)?;
     super::check_output_dir(out)?;
     let start = Instant::now();
-    let bar = super::progress(count_scans(log)?, "register");
-    let mapped = map_log(log, config, &|| bar.inc(1))?;
+    // A CARMEN log is counted first (cheap); a bag's count shows as it is read.
+    let bar = match log_kind(log)?.0 {
+        LogKind::Carmen => super::progress(count_scans(log, bag)?, "register"),
+        _ => super::progress(0, "scans read"),
+    };
+    let mapped = map_log(log, config, bag, &|| bar.inc(1))?;
     bar.finish_and_clear();
     write(log, &mapped, out)?;
     let seconds = start.elapsed().as_secs_f64();
-    let scans = &mapped.registered.scans;
+    let r = &mapped.registered;
+    let scans = &r.scans;
     let unregistered = scans.iter().filter(|s| !s.registered).count();
-    let no_odometry = scans.iter().skip(1).filter(|s| !s.odometry).count();
     let path_m: f64 = scans
         .windows(2)
         .map(|w| w[0].pose.between(&w[1].pose).translation().norm())
         .sum();
+    let info = &r.info;
+    match (&info.scan_topic, &info.motion) {
+        (Some(scan), motion) => outln!(
+            "{}: scans from {scan}, motion from {}",
+            info.format,
+            motion
+                .as_deref()
+                .unwrap_or("nothing (no odometry topic and no /tf)")
+        )?,
+        _ => outln!("{}", info.format)?,
+    }
+    if info.mount != Pose2::IDENTITY {
+        let m = info.mount;
+        outln!(
+            "the laser sits at ({:+.3}, {:+.3}) m, {:+.1}° on the robot (/tf_static)",
+            m.x,
+            m.y,
+            m.theta_deg()
+        )?;
+    }
+    for (why, n) in &info.skipped {
+        outln!("{n} skipped: {why}")?;
+    }
     outln!(
-        "{} scans over {:.0} m registered in {:.2} s{}",
+        "{} scans over {:.0} m registered ({} more the motion filter skipped, their poses interpolated) in {:.2} s{}",
         scans.len(),
         path_m,
+        r.skipped.len(),
         seconds,
         peak_memory_bytes().map_or(String::new(), |b| format!(
             ", peak memory {:.0} MB",
             b as f64 / 1e6
         ))
     )?;
-    let loops = &mapped.registered.loops;
+    let loops = &r.loops;
     let kept = loops.iter().filter(|l| l.kept).count();
     let recognised = loops.iter().filter(|l| l.kept && l.recognised).count();
     outln!(
         "{kept} loops closed, {recognised} of them found by the place index ({} revisit searches among {} places kept; {} matches dropped as inconsistent with the rest of the graph; the graph solved {} times)",
-        mapped.registered.loop_searches,
-        mapped.registered.keyframes,
+        r.loop_searches,
+        r.keyframes,
         loops.len() - kept,
-        mapped.registered.solves
+        r.solves
     )?;
     if unregistered > 0 {
         outln!("{unregistered} scans matched too little of the map and kept their odometry")?;
     }
-    if no_odometry > 0 {
-        outln!("{no_odometry} steps had no odometry in the log and were searched without a motion prior")?;
+    // Which odometry convention the log holds, step by step.
+    let mut sources: Vec<(OdometrySource, usize)> = Vec::new();
+    let mut none = 0;
+    for s in scans.iter().skip(1) {
+        match s.odometry {
+            Some(src) => match sources.iter_mut().find(|(k, _)| *k == src) {
+                Some((_, n)) => *n += 1,
+                None => sources.push((src, 1)),
+            },
+            None => none += 1,
+        }
+    }
+    for (src, n) in sources {
+        outln!("odometry of {n} steps from {}", src.describe())?;
+    }
+    if none > 0 {
+        outln!("{none} steps had no odometry in the log and were searched without a motion prior")?;
     }
     let ros = RosMap::from_grid(&mapped.grid);
     outln!(
@@ -76,10 +124,12 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig) -> Result<()> {
     Ok(())
 }
 
-/// Writes the map folder of a mapped log.
+/// Writes the map folder of a mapped log: `poses.json` one pose per scan
+/// registered, `poses.tum` one per scan read (skipped ones interpolated).
 fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let ros = RosMap::from_grid(&mapped.grid);
-    let poses: Vec<Pose2> = mapped.registered.scans.iter().map(|s| s.pose).collect();
+    let r = &mapped.registered;
+    let poses: Vec<Pose2> = r.scans.iter().map(|s| s.pose).collect();
     let name = log
         .file_name()
         .map_or_else(|| log.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -91,8 +141,7 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let picture = pirouette::plot::map_figure(&ros, &poses, &[], &title);
     let mut png = Vec::new();
     picture.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    let records: Vec<PoseRecord> = mapped
-        .registered
+    let records: Vec<PoseRecord> = r
         .scans
         .iter()
         .map(|s| PoseRecord::scan(s.scan, s.t, &s.pose))
@@ -100,9 +149,13 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     if records.is_empty() {
         bail!("{}: no scan was mapped", log.display());
     }
+    let every: Vec<PoseRecord> = (r.every_scan().iter())
+        .map(|&(k, t, pose)| PoseRecord::scan(k, t, &pose))
+        .collect();
     write_map_dir(out, &ros, &png, &records)?;
-    let ids: Vec<u64> = mapped.registered.nodes.iter().map(|&k| k as u64).collect();
-    write_pose_graph(&out.join(GRAPH_FILE), &mapped.registered.graph, &ids)?;
+    pirouette::io::atomic_write_with(&out.join(map_names::POSES_TUM), |w| write_tum(w, &every))?;
+    let ids: Vec<u64> = r.nodes.iter().map(|&k| r.scans[k].scan as u64).collect();
+    write_pose_graph(&out.join(GRAPH_FILE), &r.graph, &ids)?;
     Ok(())
 }
 
@@ -157,5 +210,62 @@ pub fn eval_laser(a: EvalLaserArgs) -> Result<()> {
     };
     show("mapped", &r.estimated)?;
     show("dead reckoning", &r.dead_reckoning)?;
+    Ok(())
+}
+
+/// Arguments of `pirouette eval relations`.
+#[derive(clap::Args, Debug)]
+pub struct EvalRelationsArgs {
+    /// The trajectory: a `poses.tum` file, or the map folder holding one.
+    poses: PathBuf,
+    /// The benchmark's relations (`t1 t2 x y z roll pitch yaw` per line).
+    relations: PathBuf,
+    /// One JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `pirouette eval relations`.
+pub fn eval_relations(a: EvalRelationsArgs) -> Result<()> {
+    let tum = if a.poses.is_dir() {
+        a.poses.join(map_names::POSES_TUM)
+    } else {
+        a.poses.clone()
+    };
+    let trajectory = read_tum(&tum)?;
+    let relations = read_relations(&a.relations)?;
+    if relations.is_empty() {
+        bail!("{}: no relation in the file", a.relations.display());
+    }
+    let s = score_relations(&trajectory, &relations);
+    if a.json {
+        outln!("{}", serde_json::to_string(&s)?)?;
+        return Ok(());
+    }
+    outln!(
+        "{}: {} of {} relations used ({} with a stamp no pose lies within {} s of)",
+        tum.display(),
+        s.used,
+        s.relations,
+        s.unmatched,
+        MATCH_WINDOW_S
+    )?;
+    outln!(
+        "translational error {:.4} ± {:.4} m (squared {:.5} ± {:.5} m²)",
+        s.trans_abs_m,
+        s.trans_abs_m_std,
+        s.trans_sq_m2,
+        s.trans_sq_m2_std
+    )?;
+    outln!(
+        "rotational error    {:.3} ± {:.3}° (squared {:.3} ± {:.3} deg²)",
+        s.rot_abs_deg,
+        s.rot_abs_deg_std,
+        s.rot_sq_deg2,
+        s.rot_sq_deg2_std
+    )?;
+    if s.used == 0 {
+        bail!("{}: no relation's stamps match the trajectory's", tum.display());
+    }
     Ok(())
 }

@@ -77,8 +77,10 @@ impl MapOptions {
 /// Arguments of `pirouette map`.
 #[derive(clap::Args, Debug)]
 pub struct MapArgs {
-    /// Camera dataset folder, or a CARMEN laser log (FLASER or
-    /// ROBOTLASER1 scans with ODOM lines).
+    /// Camera dataset folder; or a laser log: a CARMEN log (FLASER or
+    /// ROBOTLASER1 scans, with ODOM lines or raw odometry in the FLASER
+    /// fields), a ROS 1 bag (.bag), a ROS 2 bag folder (with its
+    /// metadata.yaml) or its .mcap / .db3 storage file.
     dataset: PathBuf,
     /// Folder for map.pgm, map.yaml, map.png, poses.json and poses.tum
     /// (created if missing; files in it are replaced atomically).
@@ -86,6 +88,14 @@ pub struct MapArgs {
     out: PathBuf,
     #[command(flatten)]
     options: MapOptions,
+    /// A bag's sensor_msgs/LaserScan topic, where it has several.
+    #[arg(long)]
+    scan_topic: Option<String>,
+    /// A bag's nav_msgs/Odometry topic, where it has several (without
+    /// one, the /tf transform from the odometry frame to the robot's base
+    /// is the motion).
+    #[arg(long)]
+    odom_topic: Option<String>,
 }
 
 /// Arguments of `pirouette eval map`.
@@ -216,14 +226,25 @@ pub fn evaluate(
 /// `pirouette map`.
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
-    // A camera dataset is a folder (or its dataset.json); any other file
-    // is read as a laser log.
-    if a.dataset.is_file() && a.dataset.file_name().is_some_and(|n| n != "dataset.json") {
+    // A camera dataset is a folder (or its dataset.json); any other file,
+    // and a ROS 2 bag's folder, is read as a laser log.
+    let ros2_folder = a.dataset.join("metadata.yaml").is_file();
+    if ros2_folder || (a.dataset.is_file() && a.dataset.file_name().is_some_and(|n| n != "dataset.json")) {
         let mut config = pirouette::laser::LaserConfig::default();
         if let Some(r) = a.options.resolution {
             config.grid.resolution_m = r;
         }
-        return super::laser::map(&a.dataset, &a.out, &config);
+        let bag = pirouette::io::BagOptions {
+            scan_topic: a.scan_topic,
+            odom_topic: a.odom_topic,
+        };
+        return super::laser::map(&a.dataset, &a.out, &config, &bag);
+    }
+    if a.scan_topic.is_some() || a.odom_topic.is_some() {
+        bail!(
+            "--scan-topic and --odom-topic are a bag's; {} is a camera dataset",
+            a.dataset.display()
+        );
     }
     let ds = open_camera_dataset(&a.dataset)?;
     super::check_output_dir(&a.out)?;

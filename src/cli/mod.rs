@@ -117,6 +117,12 @@ enum EvalCommand {
     /// translation and rotation errors between scans 1 m and 10 m apart
     /// along the path, with dead reckoning from the raw odometry beside.
     Laser(laser::EvalLaserArgs),
+    /// The SLAM benchmark's relations metric of a trajectory (poses.tum
+    /// or a map folder): per relation the error of the trajectory's
+    /// relative pose between the poses nearest its two stamps (within
+    /// 0.1 s); mean ± std of the absolute and squared translational and
+    /// rotational errors, relations used and unmatched.
+    Relations(laser::EvalRelationsArgs),
     /// The scoreboard: every case of the corpus (datasets/corpus.toml),
     /// its figures, time and peak memory against its targets, worst first;
     /// per kind the worst case, the median and the cases short of target;
@@ -145,6 +151,7 @@ pub fn run() -> Result<()> {
         Command::Eval(EvalCommand::Map(a)) => map::eval_map(a),
         Command::Eval(EvalCommand::Places(a)) => places::eval_places(a),
         Command::Eval(EvalCommand::Laser(a)) => laser::eval_laser(a),
+        Command::Eval(EvalCommand::Relations(a)) => laser::eval_relations(a),
         Command::Eval(EvalCommand::Suite(a)) => suite::suite(a),
         Command::Measure(a) => suite::measure(a),
     }

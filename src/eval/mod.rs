@@ -4,6 +4,7 @@
 
 pub mod laser;
 pub mod map;
+pub mod relations;
 pub mod suite;
 
 use pirouette_camera::CameraModel;

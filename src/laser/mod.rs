@@ -14,7 +14,7 @@ use crate::frame::laser_frame;
 use crate::geom::{Point2, Pose2};
 use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use crate::grid::{GridConfig, OccupancyGrid};
-use crate::io::{CarmenReader, IoError, LaserScan};
+use crate::io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
 use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
 use crate::profile::Rop;
 use crate::register::{
@@ -90,6 +90,38 @@ pub struct LaserConfig {
     pub unknown_step_rad: f64,
     /// Loop closure.
     pub loops: LoopConfig,
+    /// Which scans are registered.
+    pub motion_filter: MotionFilter,
+}
+
+/// Which scans are registered: a scan whose odometry since the last one
+/// registered moved less than both limits adds nothing the local map does
+/// not hold; it is skipped and its pose interpolated afterwards. A scan
+/// without odometry for its step is always registered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionFilter {
+    /// Distance, metres.
+    pub min_step_m: f64,
+    /// Turn, radians.
+    pub min_turn_rad: f64,
+}
+
+impl Default for MotionFilter {
+    /// 10 cm or 5°: two cells of the local map at its centre, or a
+    /// tenth of a beam's cell of the grid 20 m out.
+    fn default() -> Self {
+        Self {
+            min_step_m: 0.1,
+            min_turn_rad: 5f64.to_radians(),
+        }
+    }
+}
+
+impl MotionFilter {
+    /// Whether a step moved enough for its scan to be registered.
+    pub fn keeps(&self, step: &Pose2) -> bool {
+        step.translation().norm() >= self.min_step_m || step.theta.abs() >= self.min_turn_rad
+    }
 }
 
 /// Settings of loop closure: which places are kept, how revisits are
@@ -207,6 +239,7 @@ impl Default for LaserConfig {
             unknown_step_m: 0.8,
             unknown_step_rad: 25f64.to_radians(),
             loops: LoopConfig::default(),
+            motion_filter: MotionFilter::default(),
         }
     }
 }
@@ -220,8 +253,9 @@ pub struct ScanPose {
     pub t: f64,
     /// Its registered pose in the map frame (the first scan's).
     pub pose: Pose2,
-    /// Whether the log held odometry for the step to it.
-    pub odometry: bool,
+    /// Where the log's odometry for the step to it came from (`None`:
+    /// the log held none).
+    pub odometry: Option<OdometrySource>,
     /// Whether its registration was trusted (else the prior's mean).
     pub registered: bool,
 }
@@ -306,6 +340,14 @@ pub fn check_config(config: &LaserConfig) -> Result<()> {
     if !(spreads.into_iter().all(positive) && l.radius_per_m.is_finite() && l.radius_per_m >= 0.0) {
         bail!("loop closure's distances, spreads and tolerances must be positive: {l:?}");
     }
+    let f = &config.motion_filter;
+    if !(f.min_step_m.is_finite()
+        && f.min_step_m >= 0.0
+        && f.min_turn_rad.is_finite()
+        && f.min_turn_rad >= 0.0)
+    {
+        bail!("the motion filter's limits must be zero or more: {f:?}");
+    }
     OccupancyGrid::new(config.grid.clone()).context("grid settings")?;
     Ok(())
 }
@@ -325,11 +367,30 @@ pub struct LoopClosure {
     pub kept: bool,
 }
 
+/// A scan the motion filter skipped, its pose interpolated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkippedScan {
+    /// The scan's position in the log.
+    pub scan: usize,
+    /// Its timestamp, seconds.
+    pub t: f64,
+    /// Its pose in the map frame: the registered scan before it moved by
+    /// the odometry since, and that odometry's disagreement with the next
+    /// registered scan shared out by time.
+    pub pose: Pose2,
+}
+
 /// A registered log: every scan's pose and the loops closed.
 #[derive(Debug, Clone)]
 pub struct RegisteredLog {
-    /// Every scan, in log order.
+    /// Every scan registered, in log order; poses are the robot's (the
+    /// laser's mount taken off).
     pub scans: Vec<ScanPose>,
+    /// The scans the motion filter skipped, in log order.
+    pub skipped: Vec<SkippedScan>,
+    /// What the log's reader found (format, topics, the laser's mount,
+    /// messages skipped).
+    pub info: crate::io::LogInfo,
     /// The loop closures accepted by matching, kept or dropped by the graph.
     pub loops: Vec<LoopClosure>,
     /// Searches for a revisit made.
@@ -347,6 +408,18 @@ pub struct RegisteredLog {
     pub graph: PoseGraph,
     /// The scan of each node of `graph`.
     pub nodes: Vec<usize>,
+}
+
+impl RegisteredLog {
+    /// Every scan read, registered or skipped: its position in the log,
+    /// time and pose, in log order.
+    pub fn every_scan(&self) -> Vec<(usize, f64, Pose2)> {
+        let mut all: Vec<(usize, f64, Pose2)> = (self.scans.iter().map(|s| (s.scan, s.t, s.pose)))
+            .chain(self.skipped.iter().map(|s| (s.scan, s.t, s.pose)))
+            .collect();
+        all.sort_by_key(|&(k, _, _)| k);
+        all
+    }
 }
 
 /// The running state of registration: the poses, the path length to
@@ -483,6 +556,14 @@ impl<'c> Mapper<'c> {
             .collect();
         RegisteredLog {
             scans: meta,
+            skipped: Vec::new(),
+            info: crate::io::LogInfo {
+                format: "",
+                scan_topic: None,
+                motion: None,
+                mount: Pose2::IDENTITY,
+                skipped: Vec::new(),
+            },
             loops: self.loops.into_iter().map(|(l, _)| l).collect(),
             loop_searches: self.keyframes.searches,
             keyframes: self.keyframes.len(),
@@ -702,53 +783,151 @@ impl<'c> Mapper<'c> {
     }
 }
 
-/// Registers every scan of a log against a local map of the scans before
-/// it, closing loops where it comes back (see [`LoopConfig`]): the poses
-/// in log order. `progress` is called once per scan.
-pub fn register_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> Result<RegisteredLog> {
+/// A skipped scan before interpolation: the registered scan before it
+/// (its place in the registered list) and the odometry since.
+struct Waiting {
+    scan: usize,
+    t: f64,
+    after: usize,
+    odometry: Pose2,
+}
+
+/// Registers the scans of a log (any [`open_laser_log`] reads) that the
+/// motion filter keeps against a local map of those before, closing
+/// loops where it comes back (see [`LoopConfig`]); the skipped scans'
+/// poses interpolated. `progress` is called once per scan read.
+pub fn register_log(
+    path: &Path,
+    config: &LaserConfig,
+    options: &BagOptions,
+    progress: &dyn Fn(),
+) -> Result<RegisteredLog> {
     check_config(config)?;
     let mut m = Mapper::new(config)?;
     let mut meta: Vec<ScanPose> = Vec::new();
-    for scan in CarmenReader::open(path)? {
-        let scan = scan?;
+    // Each registered scan's odometry since the one before (in the laser's frame).
+    let mut steps: Vec<Option<Pose2>> = Vec::new();
+    let mut waiting: Vec<Waiting> = Vec::new();
+    // The odometry since the last registered scan (`None`: a step without).
+    let mut since: Option<Pose2> = Some(Pose2::IDENTITY);
+    let mut log = open_laser_log(path, options)?;
+    for scan in &mut log {
+        let mut scan = scan?;
+        progress();
+        let moved = match (since, scan.odometry) {
+            (Some(a), Some(o)) => Some(a * o),
+            _ => None,
+        };
+        if let Some(step) = moved.filter(|s| !meta.is_empty() && !config.motion_filter.keeps(s)) {
+            waiting.push(Waiting {
+                scan: scan.scan,
+                t: scan.t,
+                after: meta.len() - 1,
+                odometry: step,
+            });
+            since = Some(step);
+            continue;
+        }
+        let source = scan.odometry_source;
+        scan.odometry = moved.filter(|_| !meta.is_empty());
         let k = meta.len();
-        let label = || format!("{}: scan {} (line {})", path.display(), scan.scan, scan.line);
+        let label = || match scan.line {
+            0 => format!("{}: scan {}", path.display(), scan.scan),
+            line => format!("{}: scan {} (line {line})", path.display(), scan.scan),
+        };
         // Registered against the local map, the odometry its prior.
         let registered = m.take(k, &scan, &label)?;
         meta.push(ScanPose {
             scan: scan.scan,
             t: scan.t,
             pose: Pose2::IDENTITY,
-            odometry: scan.odometry.is_some(),
+            odometry: scan.odometry.and(source),
             registered,
         });
+        steps.push(scan.odometry);
+        since = Some(Pose2::IDENTITY);
         // Places kept, revisits searched, the graph solved.
         m.revisit(k)?;
-        progress();
     }
     if meta.is_empty() {
         bail!(
-            "{}: no laser scan (FLASER or ROBOTLASER1 line) in the log",
+            "{}: no laser scan in the log (CARMEN: FLASER or ROBOTLASER1 lines; a bag: LaserScan messages)",
             path.display()
         );
     }
-    Ok(m.finish(meta))
+    let info = log.info();
+    let mut registered = m.finish(meta);
+    registered.skipped = interpolate(&registered.scans, &steps, &waiting);
+    // The laser's poses as the robot's: `M·L·M⁻¹` keeps the first at the origin.
+    let (mount, unmount) = (info.mount, info.mount.inverse());
+    for p in (registered.scans.iter_mut().map(|s| &mut s.pose))
+        .chain(registered.skipped.iter_mut().map(|s| &mut s.pose))
+    {
+        *p = mount * *p * unmount;
+    }
+    registered.info = info;
+    Ok(registered)
 }
 
-/// The grid of a log's scans at the given poses (one per scan, in log
-/// order), the log streamed again.
-pub fn grid_of_log(path: &Path, poses: &[Pose2], config: &LaserConfig) -> Result<OccupancyGrid> {
+/// The poses of skipped scans: the registered scan before each moved by
+/// the odometry since, corrected towards the next registered scan by the
+/// share of the time between them.
+fn interpolate(scans: &[ScanPose], steps: &[Option<Pose2>], waiting: &[Waiting]) -> Vec<SkippedScan> {
+    waiting
+        .iter()
+        .map(|w| {
+            let before = &scans[w.after];
+            let predicted = before.pose * w.odometry;
+            let pose = match (scans.get(w.after + 1), steps.get(w.after + 1).copied().flatten()) {
+                (Some(next), Some(step)) => {
+                    // The next scan where the odometry alone puts it, and
+                    // where registration put it.
+                    let off = (before.pose * step).between(&next.pose);
+                    let span = next.t - before.t;
+                    let f = if span > 0.0 {
+                        ((w.t - before.t) / span).clamp(0.0, 1.0)
+                    } else {
+                        1.0
+                    };
+                    predicted * Pose2::new(off.x * f, off.y * f, off.theta * f)
+                }
+                _ => predicted,
+            };
+            SkippedScan {
+                scan: w.scan,
+                t: w.t,
+                pose,
+            }
+        })
+        .collect()
+}
+
+/// The grid of a log's registered scans at the given robot poses (one
+/// per registered scan, in log order), the log streamed again.
+pub fn grid_of_log(
+    path: &Path,
+    registered: &RegisteredLog,
+    options: &BagOptions,
+    config: &LaserConfig,
+) -> Result<OccupancyGrid> {
     let mut grid = OccupancyGrid::new(config.grid.clone()).context("grid settings")?;
-    let mut used = 0;
-    for (scan, pose) in CarmenReader::open(path)?.zip(poses) {
+    let mount = registered.info.mount;
+    let mut wanted = registered.scans.iter().peekable();
+    for scan in open_laser_log(path, options)? {
         let scan = scan?;
-        grid.insert_profile(pose, &laser_frame(&scan, config.max_range_m).rop, 0.0);
-        used += 1;
+        let Some(s) = wanted.next_if(|s| s.scan == scan.scan) else {
+            continue;
+        };
+        grid.insert_profile(
+            &(s.pose * mount),
+            &laser_frame(&scan, config.max_range_m).rop,
+            0.0,
+        );
     }
-    if used != poses.len() {
+    if let Some(s) = wanted.next() {
         return Err(IoError::Invalid {
             path: path.to_owned(),
-            problem: format!("{used} scans where registration read {}", poses.len()),
+            problem: format!("scan {} registered but not found when read again", s.scan),
         }
         .into());
     }
@@ -764,17 +943,21 @@ pub fn grid_of_log(path: &Path, poses: &[Pose2], config: &LaserConfig) -> Result
 
 /// Maps a log: registration, then the grid. `progress` is called once per
 /// scan registered.
-pub fn map_log(path: &Path, config: &LaserConfig, progress: &dyn Fn()) -> Result<LaserMap> {
-    let registered = register_log(path, config, progress)?;
-    let poses: Vec<Pose2> = registered.scans.iter().map(|s| s.pose).collect();
-    let grid = grid_of_log(path, &poses, config)?;
+pub fn map_log(
+    path: &Path,
+    config: &LaserConfig,
+    options: &BagOptions,
+    progress: &dyn Fn(),
+) -> Result<LaserMap> {
+    let registered = register_log(path, config, options, progress)?;
+    let grid = grid_of_log(path, &registered, options, config)?;
     Ok(LaserMap { registered, grid })
 }
 
 /// The laser scans of a log, counted without keeping them.
-pub fn count_scans(path: &Path) -> Result<usize> {
+pub fn count_scans(path: &Path, options: &BagOptions) -> Result<usize> {
     let mut n = 0;
-    for scan in CarmenReader::open(path)? {
+    for scan in open_laser_log(path, options)? {
         scan?;
         n += 1;
     }

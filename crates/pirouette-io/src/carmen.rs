@@ -2,13 +2,22 @@
 //! scans with the raw odometry between them.
 //!
 //! A log is read one line at a time; only the scan being assembled is
-//! held, so memory does not grow with the log. `ODOM` lines give the
-//! raw odometry: the increment between scans `k` and `k + 1` is
-//! `P_k⁻¹ · O`, `P_k` being scan `k`'s pose as the log records it and `O`
-//! the last `ODOM` pose before scan `k + 1` (logs written by a mapper
-//! restart the odometry from each corrected pose). Where no `ODOM` line
-//! after scan `k` moved away from `P_k`, the log holds no odometry for
-//! that step and the scan says so ([`LaserScan::odometry`] is `None`).
+//! held, so memory does not grow with the log. The raw odometry comes in
+//! one of two conventions ([`OdometrySource`]), told apart per step:
+//! - **`ODOM` lines** (logs published with a corrected trajectory, whose
+//!   `FLASER` pose fields hold it): the increment between scans `k` and
+//!   `k + 1` is `P_k⁻¹ · O`, `P_k` being scan `k`'s recorded pose and `O`
+//!   the last `ODOM` pose before scan `k + 1` (a mapper restarts the
+//!   odometry from each corrected pose). Where no `ODOM` line after scan
+//!   `k` moved away from `P_k`, the step has none.
+//! - **The `FLASER` odometry fields** (raw logs, written as recorded and
+//!   without `ODOM` lines): the increment is `Q_k⁻¹ · Q_{k+1}`, `Q` being
+//!   the `odom_x odom_y odom_theta` triple; where it did not move, the
+//!   step has none.
+//!
+//! Once a log has given an `ODOM` line, its `FLASER` fields are never read
+//! as odometry (they may be a corrected trajectory). A step without
+//! odometry says so ([`LaserScan::odometry`] is `None`).
 //! Other lines (`NEFF`, `PARAM`, `SYNC`, `RLASER`, `TRUEPOS`, comments)
 //! are skipped.
 
@@ -53,6 +62,31 @@ pub struct LaserScan {
     /// Raw odometry since the previous scan, in the previous scan's
     /// frame; `None` for the first scan and where the log holds none.
     pub odometry: Option<Pose2>,
+    /// Where the odometry came from (`None` with it).
+    pub odometry_source: Option<OdometrySource>,
+}
+
+/// Where a step's odometry was read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum OdometrySource {
+    /// `ODOM` lines after a scan's recorded (corrected) pose.
+    OdomLines,
+    /// The odometry fields of consecutive `FLASER` lines (a raw log).
+    LaserFields,
+    /// A ROS bag's odometry messages or `/tf` transforms, at the scans'
+    /// stamps.
+    Bag,
+}
+
+impl OdometrySource {
+    /// How a summary names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            OdometrySource::OdomLines => "ODOM lines after corrected FLASER poses",
+            OdometrySource::LaserFields => "the FLASER odometry fields (a raw log)",
+            OdometrySource::Bag => "the bag's odometry at each scan's stamp",
+        }
+    }
 }
 
 /// Reads the laser scans of a CARMEN log one at a time.
@@ -66,6 +100,10 @@ pub struct CarmenReader<R> {
     previous: Option<Pose2>,
     /// The last odometry pose since it.
     odom: Option<Pose2>,
+    /// Whether the log has given an `ODOM` line.
+    odom_lines: bool,
+    /// The previous scan's odometry fields (`FLASER`; `None` for others).
+    previous_fields: Option<Pose2>,
     /// The laser's offset ahead of the robot centre, metres
     /// (`PARAM robot_frontlaser_offset`).
     laser_offset_m: f64,
@@ -94,6 +132,8 @@ impl<R: BufRead> CarmenReader<R> {
             scans: 0,
             previous: None,
             odom: None,
+            odom_lines: false,
+            previous_fields: None,
             laser_offset_m: 0.0,
             failed: false,
         }
@@ -140,6 +180,7 @@ impl<R: BufRead> CarmenReader<R> {
                 "ODOM" => {
                     let v = self.numbers(&fields, 3, "ODOM")?;
                     self.odom = Some(self.pose(v[0], v[1], v[2])?);
+                    self.odom_lines = true;
                 }
                 "PARAM" if fields.first() == Some(&"robot_frontlaser_offset") => {
                     let v = self.numbers(&fields[1..], 1, "PARAM robot_frontlaser_offset")?;
@@ -204,7 +245,8 @@ impl<R: BufRead> CarmenReader<R> {
             .map(|&r| range(r, f64::from(FLASER_NO_RETURN_M)))
             .collect();
         let recorded = self.pose(v[n], v[n + 1], v[n + 2])?;
-        self.finish_scan(-pi / 2.0, step, ranges, recorded, v[n + 6])
+        let fields = self.pose(v[n + 3], v[n + 4], v[n + 5])?;
+        self.finish_scan(-pi / 2.0, step, ranges, recorded, Some(fields), v[n + 6])
     }
 
     /// `ROBOTLASER1 type start fov resolution max_range accuracy
@@ -232,7 +274,7 @@ impl<R: BufRead> CarmenReader<R> {
         }
         let ranges = v.iter().map(|&r| range(r, max_range)).collect();
         let recorded = self.pose(tail[3], tail[4], tail[5])?;
-        self.finish_scan(start, resolution, ranges, recorded, tail[11])
+        self.finish_scan(start, resolution, ranges, recorded, None, tail[11])
     }
 
     fn finish_scan(
@@ -241,6 +283,7 @@ impl<R: BufRead> CarmenReader<R> {
         beam_step_rad: f64,
         mut ranges_m: Vec<f32>,
         recorded: Pose2,
+        fields: Option<Pose2>,
         t: f64,
     ) -> Result<LaserScan, IoError> {
         // A laser ahead of the centre: its ranges start there, which the
@@ -254,10 +297,13 @@ impl<R: BufRead> CarmenReader<R> {
                 }
             }
         }
-        let odometry = match (self.previous, self.odom) {
+        let (odometry, odometry_source) = match (self.previous, self.odom, self.previous_fields, fields) {
             // The odometry only repeating the scan's pose: none recorded.
-            (Some(p), Some(o)) if o != p => Some(p.between(&o)),
-            _ => None,
+            (Some(p), Some(o), _, _) if o != p => (Some(p.between(&o)), Some(OdometrySource::OdomLines)),
+            (_, _, Some(a), Some(b)) if !self.odom_lines && a != b => {
+                (Some(a.between(&b)), Some(OdometrySource::LaserFields))
+            }
+            _ => (None, None),
         };
         let scan = LaserScan {
             scan: self.scans,
@@ -268,9 +314,11 @@ impl<R: BufRead> CarmenReader<R> {
             ranges_m,
             recorded,
             odometry,
+            odometry_source,
         };
         self.scans += 1;
         self.previous = Some(recorded);
+        self.previous_fields = fields;
         self.odom = None;
         Ok(scan)
     }
@@ -349,6 +397,33 @@ mod tests {
         assert!((odo.x - expect.x).abs() < 1e-12 && (odo.y - expect.y).abs() < 1e-12);
         assert!((odo.theta - 0.1).abs() < 1e-12);
         assert_eq!(scans[2].odometry, None);
+    }
+
+    #[test]
+    fn a_raw_log_carries_its_odometry_in_the_laser_fields() {
+        // No ODOM lines; the odometry triple differs from the pose triple.
+        let line = |pose: [f64; 3], odom: [f64; 3], t: f64| {
+            format!(
+                "FLASER 2 1 1 {} {} {} {} {} {} {t} host {t}\n",
+                pose[0], pose[1], pose[2], odom[0], odom[1], odom[2]
+            )
+        };
+        let log = line([5.0, 5.0, 0.0], [1.0, 0.0, 0.0], 0.0)
+            + &line([5.0, 5.0, 0.0], [1.0, 1.0, 0.5], 1.0)
+            + &line([5.0, 5.0, 0.0], [1.0, 1.0, 0.5], 2.0);
+        let scans = read(&log).unwrap();
+        let odo = scans[1].odometry.unwrap();
+        let expect = Pose2::new(1.0, 0.0, 0.0).between(&Pose2::new(1.0, 1.0, 0.5));
+        assert!((odo.x - expect.x).abs() < 1e-12 && (odo.y - expect.y).abs() < 1e-12);
+        assert!((odo.theta - 0.5).abs() < 1e-12);
+        assert_eq!(scans[1].odometry_source, Some(OdometrySource::LaserFields));
+        // Standing still: no odometry for the step.
+        assert_eq!(scans[2].odometry, None);
+        // Once ODOM lines appear, the fields are not odometry.
+        let log = String::from("ODOM 0 0 0 0 0 0 0 h 0\n")
+            + &line([0.0; 3], [0.0; 3], 0.0)
+            + &line([1.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0);
+        assert_eq!(read(&log).unwrap()[1].odometry, None);
     }
 
     #[test]

@@ -10,6 +10,10 @@
 //! - [`read_g2o`], [`write_g2o`], [`write_pose_graph`], [`G2oGraph`]: 2D pose graphs in g2o's
 //!   text format.
 //! - [`CarmenReader`], [`LaserScan`]: CARMEN laser logs, streamed.
+//! - [`open_laser_log`], [`LaserLog`], [`bag`]: any laser input (CARMEN,
+//!   ROS 1 bags, ROS 2 bags in MCAP or sqlite3), streamed as scans.
+//! - [`read_tum`], [`read_relations`]: TUM trajectories and the SLAM
+//!   benchmark's relation files.
 //! - [`read_place_index`], [`write_place_index`]: place index files
 //!   (versioned header, checksum, postcard payload).
 //! - [`atomic_write`]: every file is written to a temporary file, then
@@ -27,16 +31,19 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod atomic;
+pub mod bag;
 mod carmen;
 mod dataset;
 mod error;
 mod g2o;
 mod map_dir;
 mod places;
+mod relations;
 mod world;
 
 pub use atomic::{atomic_write, atomic_write_with};
-pub use carmen::{CarmenReader, LaserScan, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
+pub use bag::{open_laser_log, BagOptions, LaserLog, LogInfo};
+pub use carmen::{CarmenReader, LaserScan, OdometrySource, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
 pub use dataset::{
     limits, CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
     FORMAT_VERSION,
@@ -48,4 +55,5 @@ pub use places::{
     decode_place_index, read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES,
     PLACE_INDEX_FORMAT, PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,
 };
+pub use relations::{read_relations, read_tum, Relation, StampedPose, MAX_TEXT_ROWS};
 pub use world::{FootprintHit, Obstacle, World};

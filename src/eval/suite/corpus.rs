@@ -178,6 +178,18 @@ pub enum Input {
         /// How it is changed.
         variant: LaserVariant,
     },
+    /// `$PIROUETTE_SHARED/laser/benchmark/NAME.bag`, scored on its
+    /// relations beside Cartographer's published figures.
+    Bag {
+        /// The bag's name without `.bag`.
+        name: String,
+        /// Cartographer's published mean translational error, metres ...
+        cartographer_trans_m: f64,
+        /// ... mean rotational error, degrees ...
+        cartographer_rot_deg: f64,
+        /// ... and wall clock for the log, seconds.
+        cartographer_time_s: f64,
+    },
     /// `$PIROUETTE_SHARED/posegraph/FILE.g2o`, maybe changed.
     Graph {
         /// The file's name without `.g2o`.
@@ -210,7 +222,7 @@ impl Case {
         match &self.input {
             Input::Camera(s) => shared(s),
             Input::Places { index, query } => shared(index) || shared(query),
-            Input::Laser { .. } | Input::Graph { .. } => true,
+            Input::Laser { .. } | Input::Bag { .. } | Input::Graph { .. } => true,
         }
     }
 }
@@ -237,6 +249,8 @@ struct CorpusFile {
     places: Vec<PlacesGroup>,
     #[serde(default)]
     laser: Vec<LaserGroup>,
+    #[serde(default)]
+    bag: Vec<BagGroup>,
     #[serde(default)]
     graph: Vec<GraphGroup>,
 }
@@ -284,6 +298,42 @@ struct LaserGroup {
     variants: Vec<String>,
     #[serde(default)]
     quick: Vec<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BagGroup {
+    name: String,
+    cartographer_trans_m: f64,
+    cartographer_rot_deg: f64,
+    cartographer_time_s: f64,
+    #[serde(default)]
+    quick: bool,
+}
+
+impl BagGroup {
+    fn expand(&self, cases: &mut Vec<Case>) -> Result<()> {
+        let figures = [
+            self.cartographer_trans_m,
+            self.cartographer_rot_deg,
+            self.cartographer_time_s,
+        ];
+        if !figures.iter().all(|v| v.is_finite() && *v > 0.0) {
+            bail!("bag {}: the published figures must be positive", self.name);
+        }
+        cases.push(Case {
+            id: format!("{}.bag", self.name),
+            kind: Kind::Laser,
+            quick: self.quick,
+            input: Input::Bag {
+                name: self.name.clone(),
+                cartographer_trans_m: self.cartographer_trans_m,
+                cartographer_rot_deg: self.cartographer_rot_deg,
+                cartographer_time_s: self.cartographer_time_s,
+            },
+        });
+        Ok(())
+    }
 }
 
 #[derive(Deserialize)]
@@ -355,6 +405,9 @@ impl Corpus {
                 g.expand(cases)?;
             }
             for g in &file.laser {
+                g.expand(cases)?;
+            }
+            for g in &file.bag {
                 g.expand(cases)?;
             }
             for g in &file.graph {

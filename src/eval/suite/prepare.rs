@@ -25,6 +25,11 @@ pub struct Places {
 }
 
 impl Places {
+    /// A file of the shared data, checked to be there.
+    pub fn shared_file(&self, sub: &str) -> Result<PathBuf> {
+        self.shared(sub)
+    }
+
     fn shared(&self, sub: &str) -> Result<PathBuf> {
         let Some(root) = &self.shared else {
             bail!("needs the shared data: set PIROUETTE_SHARED");
@@ -98,7 +103,8 @@ impl Places {
         let out = self
             .data
             .join("laser")
-            .join(slug(&format!("{log}-{variant:?}")) + ".log");
+            // The name's version changes with what a variant holds.
+            .join(slug(&format!("{log}-{variant:?}-v2")) + ".log");
         let _making = self.making.lock().unwrap_or_else(|e| e.into_inner());
         if !out.is_file() {
             write_laser_variant(&src, &out, variant)?;
@@ -227,10 +233,13 @@ pub fn write_laser_variant(src: &Path, out: &Path, variant: LaserVariant) -> Res
         writeln!(w, "# {} as the scoreboard's variant {variant:?}", src.display())?;
         for chunk in scans.chunks(keep) {
             let first = &chunk[0];
-            writeln!(w, "{}", first.line)?;
             if !odometry {
+                // A raw log reads its odometry from these fields: zeroed,
+                // they say the step has none.
+                writeln!(w, "{}", without_odometry_fields(&first.line))?;
                 continue;
             }
+            writeln!(w, "{}", first.line)?;
             let mut step = chunk.iter().fold(Pose2::IDENTITY, |acc, s| acc * s.step);
             if noise {
                 let k = scale.sample(&mut rng);
@@ -250,6 +259,19 @@ pub fn write_laser_variant(src: &Path, out: &Path, variant: LaserVariant) -> Res
     }
     pirouette_io::atomic_write(out, &text)?;
     Ok(())
+}
+
+/// An `FLASER` line with its odometry triple (the three fields after the
+/// pose) set to zero.
+fn without_odometry_fields(line: &str) -> String {
+    let mut f: Vec<&str> = line.split_whitespace().collect();
+    let n = f.get(1).and_then(|v| v.parse::<usize>().ok()).unwrap_or(0);
+    for k in n + 5..n + 8 {
+        if let Some(v) = f.get_mut(k) {
+            *v = "0";
+        }
+    }
+    f.join(" ")
 }
 
 /// Writes `src` made harder as `variant` says.

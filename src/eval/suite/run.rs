@@ -234,6 +234,62 @@ impl Runner {
                     );
                 }
             }
+            Input::Bag {
+                name,
+                cartographer_trans_m,
+                cartographer_rot_deg,
+                cartographer_time_s,
+            } => {
+                let bag = self.places.shared_file(&format!("laser/benchmark/{name}.bag"))?;
+                let relations = self
+                    .places
+                    .shared_file(&format!("laser/benchmark/{name}.relations"))?;
+                let map = work.join("map");
+                let (u, _) = self.timed(
+                    work,
+                    bin,
+                    &args(["map".as_ref(), bag.as_os_str(), "--out".as_ref(), map.as_os_str()]),
+                )?;
+                add(u);
+                if figures {
+                    let v = json(&self.plain(
+                        &self.this,
+                        &args([
+                            "eval".as_ref(),
+                            "relations".as_ref(),
+                            map.as_os_str(),
+                            relations.as_os_str(),
+                            "--json".as_ref(),
+                        ]),
+                    )?)?;
+                    take(
+                        &mut f,
+                        &v,
+                        &[
+                            ("relations_trans_m", "/trans_abs_m"),
+                            ("relations_rot_deg", "/rot_abs_deg"),
+                            ("relations_unmatched", "/unmatched"),
+                        ],
+                    );
+                    for (k, to, by) in [
+                        (
+                            "relations_trans_m",
+                            "relations_trans_vs_cartographer",
+                            *cartographer_trans_m,
+                        ),
+                        (
+                            "relations_rot_deg",
+                            "relations_rot_vs_cartographer",
+                            *cartographer_rot_deg,
+                        ),
+                    ] {
+                        if let Some(v) = f.get(k).copied() {
+                            f.insert(to.into(), v / by);
+                        }
+                    }
+                    f.insert("time_vs_cartographer".into(), u.wall_s / cartographer_time_s);
+                }
+            }
             Input::Graph {
                 file,
                 variant,
