@@ -23,3 +23,30 @@ pub fn scratch() -> &'static Path {
         dir
     })
 }
+
+/// Reads the scans of a laser log until its end or an error: an error
+/// names the file; every scan read is well formed and makes a profile.
+#[allow(dead_code)]
+pub fn read_scans(path: &Path) {
+    let log = match pirouette::io::open_laser_log(path, &Default::default()) {
+        Ok(log) => log,
+        Err(e) => {
+            assert!(e.to_string().contains("fuzzed"), "{e}");
+            return;
+        }
+    };
+    for scan in log.take(1000) {
+        let scan = match scan {
+            Ok(s) => s,
+            Err(e) => {
+                assert!(e.to_string().contains("fuzzed"), "{e}");
+                break;
+            }
+        };
+        assert!(scan.ranges_m.len() >= 2 && scan.ranges_m.len() <= pirouette::io::MAX_BEAMS);
+        assert!(scan.first_bearing_rad.is_finite() && scan.beam_step_rad > 0.0);
+        assert!(scan.odometry.is_none_or(|o| o.is_finite()));
+        let rop = pirouette::laser::scan_profile(&scan, 20.0);
+        assert_eq!(rop.len(), scan.ranges_m.len());
+    }
+}

@@ -18,7 +18,7 @@ use crate::io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
 use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
 use crate::profile::Rop;
 use crate::register::{
-    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig,
+    endpoints, far_points, refine_near, register, thin_points, LikelihoodField, PosePrior, RegisterConfig,
 };
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
@@ -374,9 +374,9 @@ pub struct SkippedScan {
     pub scan: usize,
     /// Its timestamp, seconds.
     pub t: f64,
-    /// Its pose in the map frame: the registered scan before it moved by
-    /// the odometry since, and that odometry's disagreement with the next
-    /// registered scan shared out by time.
+    /// Its pose in the map frame: matched against the local map that holds
+    /// the registered scan before it, near where the odometry since that
+    /// scan puts it, and moved with that scan by the pose graph.
     pub pose: Pose2,
 }
 
@@ -449,6 +449,20 @@ struct Mapper<'c> {
     disagree: bool,
     /// Times the graph was solved.
     solves: usize,
+    /// Scans the motion filter skipped since the last registered one.
+    waiting: Vec<Waiting>,
+    /// Skipped scans placed: each relative to the registered scan before.
+    placed: Vec<Placed>,
+}
+
+/// A skipped scan placed against the registered scan before it.
+struct Placed {
+    scan: usize,
+    t: f64,
+    /// The registered scan before it (its place among those registered).
+    anchor: usize,
+    /// Its pose in that scan's frame.
+    relative: Pose2,
 }
 
 /// A loop edge whose squared Mahalanobis residual at the current poses is
@@ -458,6 +472,13 @@ struct Mapper<'c> {
 /// the log's end). Revisits of ground already closed then cost nothing,
 /// and the solves grow with the corrections, not with the revisits.
 const SOLVE_GATE: f64 = 7.81;
+
+/// The spread of a skipped scan's pose about where the odometry puts it,
+/// one σ, in position (metres) ...
+const SKIPPED_SIGMA_M: f64 = 0.02;
+/// ... and heading (radians): the odometry of a step the motion filter
+/// skips (under 10 cm and 5°) is good to a few per cent of it.
+const SKIPPED_SIGMA_RAD: f64 = 0.0175;
 
 /// The least spread of a step's or a loop's measured relative pose, one
 /// σ: registration's posterior can claim less than a laser's range noise
@@ -492,6 +513,8 @@ impl<'c> Mapper<'c> {
             unsolved: false,
             disagree: false,
             solves: 0,
+            waiting: Vec::new(),
+            placed: Vec::new(),
         })
     }
 
@@ -499,12 +522,8 @@ impl<'c> Mapper<'c> {
     /// the map's limit within reach) and places it after the previous
     /// scan: whether its registration was trusted.
     fn take(&mut self, k: usize, scan: &LaserScan, label: &dyn Fn() -> String) -> Result<bool> {
-        let config = self.config;
-        let frame = laser_frame(scan, config.max_range_m);
-        let mut points = endpoints(&frame.compared);
-        points.extend(far_points(&frame.compared, config.reach_m));
-        let spacing = config.register.spacing_m.max(config.field_resolution_m);
-        self.remember(k, thin_points(&points, spacing));
+        let points = self.scan_points(scan);
+        self.remember(k, points);
         if k == 0 {
             self.poses.push(Pose2::IDENTITY);
             self.along_m.push(0.0);
@@ -513,6 +532,29 @@ impl<'c> Mapper<'c> {
         let registered = self.place(k, scan.odometry.as_ref(), label)?;
         self.lost |= !registered;
         Ok(registered)
+    }
+
+    /// A scan's thinned endpoints (those it sees and those beyond the
+    /// map's limit within reach), in its frame.
+    fn scan_points(&self, scan: &LaserScan) -> Vec<Point2> {
+        let config = self.config;
+        let frame = laser_frame(scan, config.max_range_m);
+        let mut points = endpoints(&frame.compared);
+        points.extend(far_points(&frame.compared, config.reach_m));
+        thin_points(&points, config.register.spacing_m.max(config.field_resolution_m))
+    }
+
+    /// Holds a scan the motion filter skipped, `odometry` since registered
+    /// scan `after`, until the local map holds that scan.
+    fn skip(&mut self, scan: &LaserScan, after: usize, odometry: Pose2) {
+        let points = self.scan_points(scan);
+        self.waiting.push(Waiting {
+            scan: scan.scan,
+            t: scan.t,
+            after,
+            odometry,
+            points,
+        });
     }
 
     /// After scan `k` is placed: a keyframe filed where one is wanted,
@@ -534,7 +576,15 @@ impl<'c> Mapper<'c> {
 
     /// The registered log: `meta` with the final poses, the loops, and
     /// the graph without the loop edges it dropped.
-    fn finish(mut self, mut meta: Vec<ScanPose>) -> RegisteredLog {
+    fn finish(mut self, mut meta: Vec<ScanPose>) -> Result<RegisteredLog> {
+        // Scans skipped after the last registered one: against the local
+        // map that holds it.
+        if !self.waiting.is_empty() {
+            let last = self.poses.len() - 1;
+            let field =
+                self.field(self.first.max((last + 1).saturating_sub(self.config.local_scans))..last + 1);
+            self.settle(&field, &|| "the scans after the last registered one".to_owned())?;
+        }
         if self.unsolved {
             self.optimise();
         }
@@ -554,9 +604,16 @@ impl<'c> Mapper<'c> {
             .filter(|(e, _)| !dropped.contains(e))
             .map(|(_, edge)| edge)
             .collect();
-        RegisteredLog {
+        let skipped = (self.placed.iter())
+            .map(|p| SkippedScan {
+                scan: p.scan,
+                t: p.t,
+                pose: self.poses[p.anchor] * p.relative,
+            })
+            .collect();
+        Ok(RegisteredLog {
             scans: meta,
-            skipped: Vec::new(),
+            skipped,
             info: crate::io::LogInfo {
                 format: "",
                 scan_topic: None,
@@ -570,7 +627,7 @@ impl<'c> Mapper<'c> {
             solves: self.solves,
             graph,
             nodes,
-        }
+        })
     }
 
     /// The endpoints of scan `k`, in its frame (a recent scan).
@@ -684,12 +741,44 @@ impl<'c> Mapper<'c> {
         every == 0 || k % every == 0 || self.keyframes.wanted(self.config, &self.track(), k)
     }
 
+    /// Places the scans the motion filter skipped since the last
+    /// registered scan against `field` (the local map, that scan in it):
+    /// each refined from where the odometry puts it (a few centimetres
+    /// off at most), under a prior of [`SKIPPED_SIGMA_M`] and
+    /// [`SKIPPED_SIGMA_RAD`]; where too little matches, the odometry's
+    /// pose.
+    fn settle(&mut self, field: &LikelihoodField, label: &dyn Fn() -> String) -> Result<()> {
+        for w in std::mem::take(&mut self.waiting) {
+            let anchor = self.poses[w.after];
+            let prior = PosePrior {
+                mean: anchor * w.odometry,
+                sigma_forward_m: SKIPPED_SIGMA_M,
+                sigma_left_m: SKIPPED_SIGMA_M,
+                sigma_theta_rad: SKIPPED_SIGMA_RAD,
+            };
+            let reg = refine_near(field, &w.points, &prior, &self.config.register).with_context(label)?;
+            let relative = if reg.accepted {
+                anchor.between(&reg.pose)
+            } else {
+                w.odometry
+            };
+            self.placed.push(Placed {
+                scan: w.scan,
+                t: w.t,
+                anchor: w.after,
+                relative,
+            });
+        }
+        Ok(())
+    }
+
     /// Registers scan `k` (its endpoints already stored) after the
     /// previous one, with `odometry` as the prior.
     fn place(&mut self, k: usize, odometry: Option<&Pose2>, label: &dyn Fn() -> String) -> Result<bool> {
         let config = self.config;
         let prior = step_prior(&self.poses[k - 1], odometry, config);
         let field = self.field(k.saturating_sub(config.local_scans)..k);
+        self.settle(&field, label)?;
         let reg = register(&field, self.points(k), &prior, &config.register).with_context(label)?;
         let step = self.poses[k - 1].between(&reg.pose);
         let covariance = self.local_covariance(k - 1, &reg.covariance);
@@ -783,13 +872,15 @@ impl<'c> Mapper<'c> {
     }
 }
 
-/// A skipped scan before interpolation: the registered scan before it
-/// (its place in the registered list) and the odometry since.
+/// A skipped scan waiting for the local map to hold the registered scan
+/// before it (its place among those registered), and the odometry since.
 struct Waiting {
     scan: usize,
     t: f64,
     after: usize,
     odometry: Pose2,
+    /// Its thinned endpoints, in its frame.
+    points: Vec<Point2>,
 }
 
 /// Registers the scans of a log (any [`open_laser_log`] reads) that the
@@ -805,9 +896,6 @@ pub fn register_log(
     check_config(config)?;
     let mut m = Mapper::new(config)?;
     let mut meta: Vec<ScanPose> = Vec::new();
-    // Each registered scan's odometry since the one before (in the laser's frame).
-    let mut steps: Vec<Option<Pose2>> = Vec::new();
-    let mut waiting: Vec<Waiting> = Vec::new();
     // The odometry since the last registered scan (`None`: a step without).
     let mut since: Option<Pose2> = Some(Pose2::IDENTITY);
     let mut log = open_laser_log(path, options)?;
@@ -819,12 +907,7 @@ pub fn register_log(
             _ => None,
         };
         if let Some(step) = moved.filter(|s| !meta.is_empty() && !config.motion_filter.keeps(s)) {
-            waiting.push(Waiting {
-                scan: scan.scan,
-                t: scan.t,
-                after: meta.len() - 1,
-                odometry: step,
-            });
+            m.skip(&scan, meta.len() - 1, step);
             since = Some(step);
             continue;
         }
@@ -844,7 +927,6 @@ pub fn register_log(
             odometry: scan.odometry.and(source),
             registered,
         });
-        steps.push(scan.odometry);
         since = Some(Pose2::IDENTITY);
         // Places kept, revisits searched, the graph solved.
         m.revisit(k)?;
@@ -856,8 +938,7 @@ pub fn register_log(
         );
     }
     let info = log.info();
-    let mut registered = m.finish(meta);
-    registered.skipped = interpolate(&registered.scans, &steps, &waiting);
+    let mut registered = m.finish(meta)?;
     // The laser's poses as the robot's: `M·L·M⁻¹` keeps the first at the origin.
     let (mount, unmount) = (info.mount, info.mount.inverse());
     for p in (registered.scans.iter_mut().map(|s| &mut s.pose))
@@ -867,39 +948,6 @@ pub fn register_log(
     }
     registered.info = info;
     Ok(registered)
-}
-
-/// The poses of skipped scans: the registered scan before each moved by
-/// the odometry since, corrected towards the next registered scan by the
-/// share of the time between them.
-fn interpolate(scans: &[ScanPose], steps: &[Option<Pose2>], waiting: &[Waiting]) -> Vec<SkippedScan> {
-    waiting
-        .iter()
-        .map(|w| {
-            let before = &scans[w.after];
-            let predicted = before.pose * w.odometry;
-            let pose = match (scans.get(w.after + 1), steps.get(w.after + 1).copied().flatten()) {
-                (Some(next), Some(step)) => {
-                    // The next scan where the odometry alone puts it, and
-                    // where registration put it.
-                    let off = (before.pose * step).between(&next.pose);
-                    let span = next.t - before.t;
-                    let f = if span > 0.0 {
-                        ((w.t - before.t) / span).clamp(0.0, 1.0)
-                    } else {
-                        1.0
-                    };
-                    predicted * Pose2::new(off.x * f, off.y * f, off.theta * f)
-                }
-                _ => predicted,
-            };
-            SkippedScan {
-                scan: w.scan,
-                t: w.t,
-                pose,
-            }
-        })
-        .collect()
 }
 
 /// The grid of a log's registered scans at the given robot poses (one

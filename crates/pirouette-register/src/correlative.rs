@@ -309,6 +309,46 @@ pub fn register(
     })
 }
 
+/// Refinement alone: from the prior's mean, the same climb below one cell
+/// that [`register`] ends with, without the lattice search; for a pose
+/// known to about a cell already (a scan between two registered ones,
+/// placed by a few centimetres of odometry). The covariance is the
+/// prior's; `evaluated` counts nothing. Not accepted where fewer than
+/// `min_matched` endpoints lie on mapped obstacles.
+pub fn refine_near(
+    field: &LikelihoodField,
+    points_robot: &[Point2],
+    prior: &PosePrior,
+    config: &RegisterConfig,
+) -> Result<Registration, RegisterError> {
+    prior.check()?;
+    let res = field.resolution_m();
+    let points = thin_points(points_robot, config.spacing_m.max(res));
+    let mut out = Registration {
+        pose: prior.mean,
+        covariance: prior.covariance(),
+        mean_log_likelihood: field.floor() as f64,
+        points: points.len(),
+        matched: 0,
+        accepted: false,
+        evaluated: 0,
+        rival: None,
+    };
+    if points.len() < config.min_matched || field.obstacle_points() == 0 {
+        return Ok(out);
+    }
+    let anchored = Anchored::new(field, &points, prior.mean, res);
+    let pose = refine(&anchored, prior, res, prior.sigma_theta_rad);
+    let (sum, matched) = anchored.evaluate(&pose);
+    out.mean_log_likelihood = sum / points.len() as f64;
+    out.matched = matched;
+    if matched >= config.min_matched {
+        out.pose = pose;
+        out.accepted = true;
+    }
+    Ok(out)
+}
+
 /// A lattice pose's score and its steps `(a, b, kt)` (see [`Lattice`]).
 type LatticeBest = (f64, i64, i64, i64);
 

@@ -4,7 +4,8 @@
 //!   mapped obstacle.
 //! - [`register`]: correlative search over translation and rotation around
 //!   a [`PosePrior`], local refinement below one cell, and the covariance
-//!   of the result ([`Registration`]), tuned by [`RegisterConfig`].
+//!   of the result ([`Registration`]), tuned by [`RegisterConfig`];
+//!   [`refine_near`]: the refinement alone, for a pose known to a cell.
 //! - [`PosePrior::after_forward`]: the belief after a commanded straight
 //!   move, from [`MotionNoise`].
 //! - [`endpoints`]: the obstacle points of a profile in its own frame.
@@ -30,7 +31,7 @@ mod correlative;
 mod field;
 
 pub use correlative::{
-    register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
+    refine_near, register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
 };
 pub use field::LikelihoodField;
 

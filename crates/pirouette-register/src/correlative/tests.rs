@@ -316,3 +316,26 @@ fn rival_peak_is_the_best_local_maximum_away_from_the_best() {
         "{found} cases with a rival, {none} without"
     );
 }
+
+#[test]
+fn refinement_alone_climbs_a_cell_back_to_the_truth() {
+    let world = room();
+    let field = field_of(&world);
+    let truth = Pose2::new(1.005, 0.44, 0.06);
+    let seen = seen_from(&world, &truth, 0.9, 0.003, 2);
+    // A cell and a half off in position, half a degree in heading.
+    let prior = PosePrior {
+        mean: truth * Pose2::new(0.012, -0.009, 0.5f64.to_radians()),
+        sigma_forward_m: 0.02,
+        sigma_left_m: 0.02,
+        sigma_theta_rad: 1f64.to_radians(),
+    };
+    let reg = refine_near(&field, &seen, &prior, &RegisterConfig::default()).unwrap();
+    assert!(reg.accepted && reg.evaluated == 0);
+    let err = reg.pose.between(&truth);
+    assert!(err.translation().norm() < 0.004, "{err:?}");
+    assert!(err.theta.abs() < 0.2f64.to_radians(), "{err:?}");
+    // Nothing to match: the prior's mean, not accepted.
+    let none = refine_near(&field, &seen[..3], &prior, &RegisterConfig::default()).unwrap();
+    assert!(!none.accepted && none.pose == prior.mean);
+}
