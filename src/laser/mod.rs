@@ -96,8 +96,9 @@ pub struct LaserConfig {
 
 /// Which scans are registered: a scan whose odometry since the last one
 /// registered moved less than both limits adds nothing the local map does
-/// not hold; it is skipped and its pose interpolated afterwards. A scan
-/// without odometry for its step is always registered.
+/// not hold; it is not registered on its own but refined near its
+/// odometry pose against the next local map. A scan without odometry for
+/// its step is always registered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionFilter {
     /// Distance, metres.
@@ -367,7 +368,7 @@ pub struct LoopClosure {
     pub kept: bool,
 }
 
-/// A scan the motion filter skipped, its pose interpolated.
+/// A scan the motion filter skipped, placed by refinement alone.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SkippedScan {
     /// The scan's position in the log.
@@ -886,7 +887,7 @@ struct Waiting {
 /// Registers the scans of a log (any [`open_laser_log`] reads) that the
 /// motion filter keeps against a local map of those before, closing
 /// loops where it comes back (see [`LoopConfig`]); the skipped scans'
-/// poses interpolated. `progress` is called once per scan read.
+/// poses refined near their odometry. `progress` is called once per scan read.
 pub fn register_log(
     path: &Path,
     config: &LaserConfig,
