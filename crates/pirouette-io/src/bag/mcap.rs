@@ -30,7 +30,6 @@ pub struct McapBag {
     schemas: HashMap<u16, String>,
     /// Bytes read so far (for errors).
     read: u64,
-    failed: bool,
 }
 
 fn linear() -> LinearReader {
@@ -64,7 +63,6 @@ impl McapBag {
             ids: HashMap::new(),
             schemas: HashMap::new(),
             read: 0,
-            failed: false,
         };
         match summary.finish() {
             Some(s) => {
@@ -167,13 +165,6 @@ impl MessageSource for McapBag {
     }
 
     fn next_message(&mut self) -> Result<Option<RawMessage>, IoError> {
-        if self.failed {
-            return Ok(None);
-        }
-        let next = self.next_raw();
-        if next.is_err() {
-            self.failed = true;
-        }
-        next
+        self.next_raw()
     }
 }

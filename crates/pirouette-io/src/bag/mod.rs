@@ -75,7 +75,8 @@ pub trait MessageSource {
     fn format(&self) -> &'static str;
     /// How its messages are serialised.
     fn wire(&self) -> Wire;
-    /// The next message in the bag's order; `None` at the end.
+    /// The next message in the bag's order; `None` at the end. After an
+    /// error the reader is not asked again ([`BagScans`] stops).
     fn next_message(&mut self) -> Result<Option<RawMessage>, IoError>;
 }
 

@@ -145,7 +145,6 @@ pub struct Ros1Bag {
     /// Messages read so far (orders equal times by the file).
     read: u64,
     eof: bool,
-    failed: bool,
 }
 
 impl Ros1Bag {
@@ -176,7 +175,6 @@ impl Ros1Bag {
             release_before: 0,
             read: 0,
             eof: false,
-            failed: false,
         };
         let first_offset = bag.offset;
         let header = bag
@@ -476,13 +474,6 @@ impl MessageSource for Ros1Bag {
     }
 
     fn next_message(&mut self) -> Result<Option<RawMessage>, IoError> {
-        if self.failed {
-            return Ok(None);
-        }
-        let next = self.next_raw();
-        if next.is_err() {
-            self.failed = true;
-        }
-        next
+        self.next_raw()
     }
 }
