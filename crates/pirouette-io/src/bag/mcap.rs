@@ -1,13 +1,12 @@
 //! ROS 2 bags in MCAP storage, read with the `mcap` crate's sans-I/O
-//! readers: the channels from the summary section at the end (a file
-//! without one is read once through for them), then the records front to
-//! back, a chunk at a time.
+//! linear reader: once through for the channels, then the records front
+//! to back, a chunk at a time. Only schema, channel and message records
+//! are parsed, each after its length fields are checked against it.
 
 use super::{Connection, MessageSource, RawMessage};
 use crate::IoError;
-use mcap::records::Record;
+use mcap::records::{op, Record};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
-use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
 use std::collections::HashMap;
 use std::io::{Read, Seek};
 use std::path::{Path, PathBuf};
@@ -16,7 +15,39 @@ use std::path::{Path, PathBuf};
 pub const MAGIC: &[u8] = mcap::MAGIC;
 
 /// The longest record read, bytes.
-const MAX_RECORD_BYTES: usize = 1 << 30;
+const MAX_RECORD_BYTES: usize = 256 << 20;
+
+/// Whether the length-prefixed fields of a schema, channel or message
+/// record fit in it (the crate allocates a field's stated length before
+/// reading it).
+fn lengths_fit(opcode: u8, data: &[u8]) -> bool {
+    // Skips a `u32`-length-prefixed field at `at`; the offset after it.
+    let field = |at: usize| -> Option<usize> {
+        let b = data.get(at..at + 4)?;
+        let len = u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize;
+        let end = at.checked_add(4)?.checked_add(len)?;
+        (end <= data.len()).then_some(end)
+    };
+    let fits = || -> Option<()> {
+        match opcode {
+            // id, name, encoding, data.
+            op::SCHEMA => field(field(field(2)?)?).map(|_| ()),
+            // id, schema id, topic, encoding, then a map of string pairs.
+            op::CHANNEL => {
+                let map = field(field(4)?)?;
+                let end = field(map)?;
+                let mut at = map + 4;
+                while at < end {
+                    at = field(field(at)?)?;
+                }
+                (at == end).then_some(())
+            }
+            // A fixed header, then the data to the end.
+            _ => (data.len() >= 22).then_some(()),
+        }
+    };
+    fits().is_some()
+}
 
 /// The reader of an MCAP bag.
 pub struct McapBag {
@@ -37,24 +68,12 @@ fn linear() -> LinearReader {
 }
 
 impl McapBag {
-    /// Opens an MCAP file and reads its channels.
+    /// Opens an MCAP file and reads its channels: one pass through the
+    /// file (the summary section is not trusted: the crate's summary
+    /// reader parses every index record it holds, and a damaged length
+    /// there would be allocated before it is checked).
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        let mut file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
-        let bad = |e: mcap::McapError| IoError::invalid(path, format!("not a readable MCAP file: {e}"));
-        let mut summary = SummaryReader::new();
-        while let Some(event) = summary.next_event() {
-            match event.map_err(bad)? {
-                SummaryReadEvent::ReadRequest(n) => {
-                    let got = file.read(summary.insert(n)).map_err(|e| IoError::io(path, e))?;
-                    summary.notify_read(got);
-                }
-                SummaryReadEvent::SeekRequest(to) => {
-                    let at = file.seek(to).map_err(|e| IoError::io(path, e))?;
-                    summary.notify_seeked(at);
-                }
-            }
-        }
-        file.rewind().map_err(|e| IoError::io(path, e))?;
+        let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
         let mut bag = Self {
             path: path.to_owned(),
             file,
@@ -64,23 +83,10 @@ impl McapBag {
             schemas: HashMap::new(),
             read: 0,
         };
-        match summary.finish() {
-            Some(s) => {
-                let mut channels: Vec<_> = s.channels.values().collect();
-                channels.sort_by_key(|c| c.id);
-                for c in channels {
-                    let schema = c.schema.as_ref().map_or("", |s| s.name.as_str());
-                    bag.file_channel(c.id, &c.topic, schema, &c.message_encoding);
-                }
-            }
-            None => {
-                // No summary: one pass through for the channels.
-                while bag.next_raw()?.is_some() {}
-                bag.file.rewind().map_err(|e| IoError::io(path, e))?;
-                bag.reader = linear();
-                bag.read = 0;
-            }
-        }
+        while bag.next_raw()?.is_some() {}
+        bag.file.rewind().map_err(|e| IoError::io(path, e))?;
+        bag.reader = linear();
+        bag.read = 0;
         Ok(bag)
     }
 
@@ -116,6 +122,17 @@ impl McapBag {
                     self.read += got as u64;
                 }
                 LinearReadEvent::Record { data, opcode } => {
+                    // Only the records read here are parsed, and only once
+                    // their lengths are known to fit.
+                    if !matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE) {
+                        continue;
+                    }
+                    if !lengths_fit(opcode, data) {
+                        return Err(IoError::invalid(
+                            &self.path,
+                            format!("near byte {at}: a record whose lengths run past its end"),
+                        ));
+                    }
                     let record = mcap::parse_record(opcode, data)
                         .map_err(|e| IoError::invalid(&self.path, format!("near byte {at}: {e}")))?;
                     match record {
@@ -166,5 +183,43 @@ impl MessageSource for McapBag {
 
     fn next_message(&mut self) -> Result<Option<RawMessage>, IoError> {
         self.next_raw()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hex(s: &str) -> Vec<u8> {
+        (0..s.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn a_damaged_index_record_is_an_error_not_an_allocation() {
+        // A fuzzed file whose attachment index claimed a 2 GB string.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("damaged.mcap");
+        let mut bytes = MAGIC.to_vec();
+        bytes.extend(hex("0a3000000000000000000000000000000000000000000000000000000000000000000000007d00ffffffffffffff00000000000080007dff02fffff70000ff0000000000000000000000000000000000000d0a0000894d434150300d0a"));
+        std::fs::write(&path, bytes).unwrap();
+        let e = McapBag::open(&path).err().expect("refused").to_string();
+        assert!(e.contains("damaged.mcap"), "{e}");
+    }
+
+    #[test]
+    fn lengths_are_checked_before_parsing() {
+        // A schema: id, then a name of 3 bytes, an encoding of 0, data of 1.
+        let mut schema = vec![1, 0];
+        for field in [&b"abc"[..], b"", b"x"] {
+            schema.extend((field.len() as u32).to_le_bytes());
+            schema.extend(field);
+        }
+        assert!(lengths_fit(op::SCHEMA, &schema));
+        schema[2] = 200;
+        assert!(!lengths_fit(op::SCHEMA, &schema));
+        assert!(!lengths_fit(op::MESSAGE, &[0; 21]));
     }
 }
