@@ -41,8 +41,8 @@ pub struct RelationScores {
     pub rot_sq_deg2_std: f64,
 }
 
-/// Mean and standard deviation (over `n`, the benchmark's convention for a
-/// whole population of relations); zeros for none.
+/// Mean and standard deviation (over `n`: the relations scored are the
+/// whole population); zeros for none.
 fn mean_std(values: &[f64]) -> (f64, f64) {
     if values.is_empty() {
         return (0.0, 0.0);

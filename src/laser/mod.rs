@@ -108,8 +108,10 @@ pub struct MotionFilter {
 }
 
 impl Default for MotionFilter {
-    /// 10 cm or 5°: two cells of the local map at its centre, or a
-    /// tenth of a beam's cell of the grid 20 m out.
+    /// 10 cm or 5°: two cells of the local map, and a turn that moves an
+    /// endpoint 1 m out by under two cells. Not a fit to any log: on
+    /// freiburg-079's CARMEN log loops close worse with it (see
+    /// BENCHMARKS.md), a loop-closure fault no setting of it cures.
     fn default() -> Self {
         Self {
             min_step_m: 0.1,

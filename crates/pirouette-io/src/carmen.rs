@@ -43,7 +43,7 @@ pub const FLASER_NO_RETURN_M: f32 = 49.9;
 pub struct LaserScan {
     /// Its position among the log's laser lines, from 0.
     pub scan: usize,
-    /// Its line in the file, from 1.
+    /// Its line in the file, from 1 (0 for a scan read from a bag).
     pub line: usize,
     /// Its timestamp, seconds (damaged in some logs: order scans by
     /// [`LaserScan::scan`], not by time).

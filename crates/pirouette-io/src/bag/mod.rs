@@ -316,7 +316,7 @@ impl BagScans {
     fn bad(&self, topic: &str, offset: u64, problem: impl std::fmt::Display) -> IoError {
         IoError::invalid(
             &self.path,
-            format!("topic {topic}, message at byte/row {offset}: {problem}"),
+            format!("topic {topic}, message at byte {offset} (sqlite3: row {offset}): {problem}"),
         )
     }
 
@@ -461,7 +461,12 @@ impl BagScans {
         let n = m.ranges.len();
         let inc = f64::from(m.angle_increment);
         let (min, max) = (f64::from(m.angle_min), f64::from(m.angle_max));
-        let bad = |p: String| self.bad(&self.scan_topic, k as u64, format!("scan {k}: {p}"));
+        let bad = |p: String| {
+            IoError::invalid(
+                &self.path,
+                format!("topic {}, scan message {k}: {p}", self.scan_topic),
+            )
+        };
         if !(2..=MAX_BEAMS).contains(&n) {
             return Err(bad(format!("{n} ranges (2 to {MAX_BEAMS} are read)")));
         }
