@@ -130,7 +130,7 @@ fn map(bag: &Path) -> RegisteredLog {
     register_log(bag, &LaserConfig::default(), &BagOptions::default(), &|| {}).expect("the bag maps")
 }
 
-/// Every scan's pose (registered and interpolated), by scan.
+/// Every scan's pose (registered or left out by the motion filter), by scan.
 fn all_poses(r: &RegisteredLog) -> Vec<(usize, Pose2)> {
     r.every_scan().into_iter().map(|(k, _, p)| (k, p)).collect()
 }

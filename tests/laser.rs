@@ -275,6 +275,57 @@ fn a_log_without_odometry_is_matched_without_a_motion_prior() {
 }
 
 #[test]
+fn the_motion_filter_judges_the_match_not_odometry_that_misses_a_turn() {
+    // Once round the ring in 5 cm steps, turning at each corner in 6°
+    // steps of which the odometry sees a tenth: summed, the odometry of
+    // a corner's turn stays under the filter's 5° for eight scans while
+    // the robot turns 48°.
+    let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5]];
+    let mut path = vec![Pose2::new(2.0, 1.5, 0.0)];
+    for c in 0..3 {
+        let [x1, y1] = corners[c + 1];
+        let start = *path.last().expect("a start");
+        let steps = ((x1 - start.x).hypot(y1 - start.y) / 0.05).round() as usize;
+        for s in 1..=steps {
+            let f = s as f64 / steps as f64;
+            path.push(Pose2::new(
+                start.x + f * (x1 - start.x),
+                start.y + f * (y1 - start.y),
+                start.theta,
+            ));
+        }
+        for _ in 0..15 {
+            let p = *path.last().expect("a pose");
+            path.push(Pose2::new(p.x, p.y, p.theta + 6f64.to_radians()));
+        }
+    }
+    let sim = LogSim {
+        odometry_turn_scale: 0.1,
+        ..LogSim::sick()
+    };
+    let mut text = Vec::new();
+    (sim.write(&mut text, &Walls::ring(), path.iter().copied(), |_| false, 3)).expect("a log in memory");
+    let (_dir, _log, reg) = registered(&String::from_utf8(text).expect("text"));
+    // Half the straight steps and none of the turns' scans are left out.
+    assert!(
+        reg.skipped.len() > path.len() / 4,
+        "{} of {} scans left out",
+        reg.skipped.len(),
+        path.len()
+    );
+    let all = reg.every_scan();
+    assert_eq!(all.len(), path.len());
+    let est: Vec<Pose2> = all.iter().map(|&(_, _, p)| p).collect();
+    let truth: Vec<Pose2> = path.iter().map(|p| path[0].between(p)).collect();
+    let ate = aligned_ate(&est, &truth);
+    assert!(ate < 0.05, "ATE {ate} m");
+    for (k, (e, t)) in est.iter().zip(&truth).enumerate() {
+        let turn = pirouette::geom::wrap_angle(e.theta - t.theta).to_degrees().abs();
+        assert!(turn < 2.0, "scan {k}: heading {turn}° off");
+    }
+}
+
+#[test]
 fn map_and_eval_laser_write_and_score_a_log() {
     let path = true_path();
     let dir = tempfile::tempdir().expect("temporary folder");
@@ -417,7 +468,7 @@ fn shared_intel_log_maps_as_measured() {
     assert!(log.is_file(), "{} is missing", log.display());
     let reg =
         register_log(&log, &LaserConfig::default(), &BagOptions::default(), &|| {}).expect("Intel registers");
-    // Every scan, those the motion filter skipped interpolated.
+    // Every scan, those the motion filter left out placed by their match.
     let est: Vec<Pose2> = reg.every_scan().iter().map(|&(_, _, p)| p).collect();
     let LogTrajectories {
         recorded: reference,

@@ -71,7 +71,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
         outln!("{n} skipped: {why}")?;
     }
     outln!(
-        "{} scans over {:.0} m registered ({} more the motion filter skipped, each refined near its odometry pose) in {:.2} s{}",
+        "{} scans over {:.0} m registered ({} more the motion filter skipped, each placed by its match alone) in {:.2} s{}",
         scans.len(),
         path_m,
         r.skipped.len(),
@@ -125,7 +125,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
 }
 
 /// Writes the map folder of a mapped log: `poses.json` one pose per scan
-/// registered, `poses.tum` one per scan read (skipped ones refined near their odometry pose).
+/// registered, `poses.tum` one per scan read (skipped ones placed by their match).
 fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let ros = RosMap::from_grid(&mapped.grid);
     let r = &mapped.registered;

@@ -18,7 +18,7 @@ use crate::io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
 use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
 use crate::profile::Rop;
 use crate::register::{
-    endpoints, far_points, refine_near, register, thin_points, LikelihoodField, PosePrior, RegisterConfig,
+    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, Registration,
 };
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
@@ -94,11 +94,12 @@ pub struct LaserConfig {
     pub motion_filter: MotionFilter,
 }
 
-/// Which scans are registered: a scan whose odometry since the last one
-/// registered moved less than both limits adds nothing the local map does
-/// not hold; it is not registered on its own but refined near its
-/// odometry pose against the next local map. A scan without odometry for
-/// its step is always registered.
+/// Which scans the local map and the pose graph take. Every scan is
+/// matched against the local map (from the pose of the scan before it,
+/// moved by the odometry); one whose matched pose lies less than both
+/// limits from the last scan taken adds nothing the local map does not
+/// hold, and keeps its matched pose relative to that scan. A scan whose
+/// match is not trusted is always taken.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionFilter {
     /// Distance, metres.
@@ -109,9 +110,7 @@ pub struct MotionFilter {
 
 impl Default for MotionFilter {
     /// 10 cm or 5°: two cells of the local map, and a turn that moves an
-    /// endpoint 1 m out by under two cells. Not a fit to any log: on
-    /// freiburg-079's CARMEN log loops close worse with it (see
-    /// BENCHMARKS.md), a loop-closure fault no setting of it cures.
+    /// endpoint 1 m out by under two cells.
     fn default() -> Self {
         Self {
             min_step_m: 0.1,
@@ -121,7 +120,7 @@ impl Default for MotionFilter {
 }
 
 impl MotionFilter {
-    /// Whether a step moved enough for its scan to be registered.
+    /// Whether a step moved enough for its scan to be taken.
     pub fn keeps(&self, step: &Pose2) -> bool {
         step.translation().norm() >= self.min_step_m || step.theta.abs() >= self.min_turn_rad
     }
@@ -160,7 +159,9 @@ pub struct LoopConfig {
     /// A match counts when at least this share of the scan's endpoints
     /// lie on the candidate's map ...
     pub min_matched_share: f64,
-    /// ... and no rival pose scores within this many nats of the best.
+    /// ... and no rival pose scores within this many nats of the best (a
+    /// rival: a peak farther from the best than `confirm_m` or
+    /// `confirm_rad`, the tolerance within which two matches agree).
     pub min_rival_gap_ln: f64,
     /// Where no keyframe lies near the estimate and the estimate may be
     /// lost (a step since the last loop closed was not registered, or the
@@ -186,7 +187,8 @@ impl Default for LoopConfig {
     /// 0.5 m; every 5th scan searched among the keyframes 8 m or more back
     /// along the path, within 0.5 m plus 2 % of the path since (at most
     /// 3 m) and ±15° of the estimate; up to 2 candidates; a match with
-    /// 60 % of the endpoints on the map and no rival within 10 nats. Where
+    /// 60 % of the endpoints on the map and no rival (a peak over 0.3 m or
+    /// 5° from the best) within 10 nats. Where
     /// the estimate may be lost, the 2 keyframes whose views the place
     /// index finds within 1 m RMS of the local map's, each searched
     /// ±1.5 m about it; such a match counts once the next one moves the
@@ -301,6 +303,20 @@ pub fn step_prior(previous: &Pose2, odometry: Option<&Pose2>, config: &LaserConf
     }
 }
 
+/// Whether `pose` lies within a cell (or a degree) of the edge of the
+/// window [`register`] searched about `prior`.
+fn at_window_edge(prior: &PosePrior, pose: &Pose2, config: &RegisterConfig, cell_m: f64) -> bool {
+    // The window is a box about the prior's mean in map axes.
+    let window = |variance: f64| (config.window_sigmas * variance.sqrt()).min(config.max_window_m);
+    let cov = prior.covariance();
+    let edge_x = (pose.x - prior.mean.x).abs() >= window(cov[(0, 0)]) - cell_m;
+    let edge_y = (pose.y - prior.mean.y).abs() >= window(cov[(1, 1)]) - cell_m;
+    let half_t = (config.window_sigmas * prior.sigma_theta_rad).min(std::f64::consts::PI);
+    let turn = pirouette_geom::wrap_angle(pose.theta - prior.mean.theta);
+    let edge_t = turn.abs() >= half_t - 1f64.to_radians();
+    edge_x || edge_y || edge_t
+}
+
 /// The most scans a local map or a keyframe's map (each side) may hold:
 /// their endpoints are kept in memory.
 pub const MAX_WINDOW_SCANS: usize = 10_000;
@@ -370,7 +386,8 @@ pub struct LoopClosure {
     pub kept: bool,
 }
 
-/// A scan the motion filter skipped, placed by refinement alone.
+/// A scan the motion filter left out of the local map and the graph,
+/// placed by its match alone.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SkippedScan {
     /// The scan's position in the log.
@@ -378,8 +395,8 @@ pub struct SkippedScan {
     /// Its timestamp, seconds.
     pub t: f64,
     /// Its pose in the map frame: matched against the local map that holds
-    /// the registered scan before it, near where the odometry since that
-    /// scan puts it, and moved with that scan by the pose graph.
+    /// the registered scan before it, and moved with that scan by the pose
+    /// graph.
     pub pose: Pose2,
 }
 
@@ -452,10 +469,15 @@ struct Mapper<'c> {
     disagree: bool,
     /// Times the graph was solved.
     solves: usize,
-    /// Scans the motion filter skipped since the last registered one.
-    waiting: Vec<Waiting>,
     /// Skipped scans placed: each relative to the registered scan before.
     placed: Vec<Placed>,
+    /// The newest scan's pose relative to the last registered one (the
+    /// identity where that is the newest): the next scan's prior starts
+    /// there.
+    newest: Pose2,
+    /// The local map's likelihood field while the scans and poses it was
+    /// made of stand (a scan registered or a graph solved drops it).
+    field: Option<LikelihoodField>,
 }
 
 /// A skipped scan placed against the registered scan before it.
@@ -475,13 +497,6 @@ struct Placed {
 /// the log's end). Revisits of ground already closed then cost nothing,
 /// and the solves grow with the corrections, not with the revisits.
 const SOLVE_GATE: f64 = 7.81;
-
-/// The spread of a skipped scan's pose about where the odometry puts it,
-/// one σ, in position (metres) ...
-const SKIPPED_SIGMA_M: f64 = 0.02;
-/// ... and heading (radians): the odometry of a step the motion filter
-/// skips (under 10 cm and 5°) is good to a few per cent of it.
-const SKIPPED_SIGMA_RAD: f64 = 0.0175;
 
 /// The least spread of a step's or a loop's measured relative pose, one
 /// σ: registration's posterior can claim less than a laser's range noise
@@ -516,25 +531,91 @@ impl<'c> Mapper<'c> {
             unsolved: false,
             disagree: false,
             solves: 0,
-            waiting: Vec::new(),
             placed: Vec::new(),
+            newest: Pose2::IDENTITY,
+            field: None,
         })
     }
 
-    /// Files scan `k`'s thinned endpoints (those it sees and those beyond
-    /// the map's limit within reach) and places it after the previous
-    /// scan: whether its registration was trusted.
-    fn take(&mut self, k: usize, scan: &LaserScan, label: &dyn Fn() -> String) -> Result<bool> {
+    /// Matches a scan against the local map (the registered scans before
+    /// it), from the newest scan's pose moved by the scan's odometry:
+    /// its thinned endpoints and the match.
+    fn matched(
+        &mut self,
+        scan: &LaserScan,
+        label: &dyn Fn() -> String,
+    ) -> Result<(Vec<Point2>, Registration)> {
+        let config = self.config;
         let points = self.scan_points(scan);
+        let last = self.poses.len() - 1;
+        let prior = step_prior(&(self.poses[last] * self.newest), scan.odometry.as_ref(), config);
+        let field = match self.field.take() {
+            Some(field) => field,
+            None => self.field((last + 1).saturating_sub(config.local_scans)..last + 1),
+        };
+        let mut reg = register(&field, &points, &prior, &config.register);
+        // A best pose on the window's edge may have a better one beyond:
+        // the odometry was wrong by more than its noise (a wheel slipping,
+        // a robot pushed). Searched again, three times as wide (a step
+        // without odometry is searched wide already); that
+        // answer counts where its best lies inside its own window (one on
+        // the edge again is a ridge, a corridor's length, that a wider
+        // window only slides along: the odometry's pose stands there).
+        if let Ok(r) = &reg {
+            let cell = config.field_resolution_m;
+            let odometry = scan.odometry.is_some();
+            if odometry && r.accepted && at_window_edge(&prior, &r.pose, &config.register, cell) {
+                let wide = PosePrior {
+                    sigma_forward_m: 3.0 * prior.sigma_forward_m,
+                    sigma_left_m: 3.0 * prior.sigma_left_m,
+                    sigma_theta_rad: 3.0 * prior.sigma_theta_rad,
+                    ..prior
+                };
+                let again = register(&field, &points, &wide, &config.register);
+                if let Ok(w) = again {
+                    if w.accepted && !at_window_edge(&wide, &w.pose, &config.register, cell) {
+                        reg = Ok(w);
+                    }
+                }
+            }
+        }
+        self.field = Some(field);
+        Ok((points, reg.with_context(label)?))
+    }
+
+    /// Registers scan `k` (`points` its thinned endpoints, `reg` its match,
+    /// `None` for the first): the local map and the graph take it.
+    /// Whether its registration was trusted.
+    fn take(&mut self, k: usize, points: Vec<Point2>, reg: Option<&Registration>) -> bool {
         self.remember(k, points);
-        if k == 0 {
+        self.field = None;
+        self.newest = Pose2::IDENTITY;
+        let Some(reg) = reg else {
             self.poses.push(Pose2::IDENTITY);
             self.along_m.push(0.0);
-            return Ok(true);
-        }
-        let registered = self.place(k, scan.odometry.as_ref(), label)?;
-        self.lost |= !registered;
-        Ok(registered)
+            return true;
+        };
+        let step = self.poses[k - 1].between(&reg.pose);
+        let covariance = self.local_covariance(k - 1, &reg.covariance);
+        self.poses.push(reg.pose);
+        self.along_m.push(self.along_m[k - 1] + step.translation().norm());
+        let node = self.is_node(k);
+        self.nodes.step(&step, &covariance, reg.pose, node);
+        self.lost |= !reg.accepted;
+        reg.accepted
+    }
+
+    /// Places a scan the motion filter leaves out at `relative`, its
+    /// matched pose in the last registered scan's frame.
+    fn skip(&mut self, scan: &LaserScan, relative: Pose2) {
+        let anchor = self.poses.len() - 1;
+        self.placed.push(Placed {
+            scan: scan.scan,
+            t: scan.t,
+            anchor,
+            relative,
+        });
+        self.newest = relative;
     }
 
     /// A scan's thinned endpoints (those it sees and those beyond the
@@ -545,19 +626,6 @@ impl<'c> Mapper<'c> {
         let mut points = endpoints(&frame.compared);
         points.extend(far_points(&frame.compared, config.reach_m));
         thin_points(&points, config.register.spacing_m.max(config.field_resolution_m))
-    }
-
-    /// Holds a scan the motion filter skipped, `odometry` since registered
-    /// scan `after`, until the local map holds that scan.
-    fn skip(&mut self, scan: &LaserScan, after: usize, odometry: Pose2) {
-        let points = self.scan_points(scan);
-        self.waiting.push(Waiting {
-            scan: scan.scan,
-            t: scan.t,
-            after,
-            odometry,
-            points,
-        });
     }
 
     /// After scan `k` is placed: a keyframe filed where one is wanted,
@@ -580,14 +648,6 @@ impl<'c> Mapper<'c> {
     /// The registered log: `meta` with the final poses, the loops, and
     /// the graph without the loop edges it dropped.
     fn finish(mut self, mut meta: Vec<ScanPose>) -> Result<RegisteredLog> {
-        // Scans skipped after the last registered one: against the local
-        // map that holds it.
-        if !self.waiting.is_empty() {
-            let last = self.poses.len() - 1;
-            let field =
-                self.field(self.first.max((last + 1).saturating_sub(self.config.local_scans))..last + 1);
-            self.settle(&field, &|| "the scans after the last registered one".to_owned())?;
-        }
         if self.unsolved {
             self.optimise();
         }
@@ -744,54 +804,6 @@ impl<'c> Mapper<'c> {
         every == 0 || k % every == 0 || self.keyframes.wanted(self.config, &self.track(), k)
     }
 
-    /// Places the scans the motion filter skipped since the last
-    /// registered scan against `field` (the local map, that scan in it):
-    /// each refined from where the odometry puts it (a few centimetres
-    /// off at most), under a prior of [`SKIPPED_SIGMA_M`] and
-    /// [`SKIPPED_SIGMA_RAD`]; where too little matches, the odometry's
-    /// pose.
-    fn settle(&mut self, field: &LikelihoodField, label: &dyn Fn() -> String) -> Result<()> {
-        for w in std::mem::take(&mut self.waiting) {
-            let anchor = self.poses[w.after];
-            let prior = PosePrior {
-                mean: anchor * w.odometry,
-                sigma_forward_m: SKIPPED_SIGMA_M,
-                sigma_left_m: SKIPPED_SIGMA_M,
-                sigma_theta_rad: SKIPPED_SIGMA_RAD,
-            };
-            let reg = refine_near(field, &w.points, &prior, &self.config.register).with_context(label)?;
-            let relative = if reg.accepted {
-                anchor.between(&reg.pose)
-            } else {
-                w.odometry
-            };
-            self.placed.push(Placed {
-                scan: w.scan,
-                t: w.t,
-                anchor: w.after,
-                relative,
-            });
-        }
-        Ok(())
-    }
-
-    /// Registers scan `k` (its endpoints already stored) after the
-    /// previous one, with `odometry` as the prior.
-    fn place(&mut self, k: usize, odometry: Option<&Pose2>, label: &dyn Fn() -> String) -> Result<bool> {
-        let config = self.config;
-        let prior = step_prior(&self.poses[k - 1], odometry, config);
-        let field = self.field(k.saturating_sub(config.local_scans)..k);
-        self.settle(&field, label)?;
-        let reg = register(&field, self.points(k), &prior, &config.register).with_context(label)?;
-        let step = self.poses[k - 1].between(&reg.pose);
-        let covariance = self.local_covariance(k - 1, &reg.covariance);
-        self.poses.push(reg.pose);
-        self.along_m.push(self.along_m[k - 1] + step.translation().norm());
-        let node = self.is_node(k);
-        self.nodes.step(&step, &covariance, reg.pose, node);
-        Ok(reg.accepted)
-    }
-
     /// Searches the keyframes for the place of scan `k`; each match found
     /// becomes a loop edge. Whether any did.
     fn close_loops(&mut self, k: usize) -> Result<bool> {
@@ -871,25 +883,17 @@ impl<'c> Mapper<'c> {
         }
         self.unsolved = false;
         self.disagree = false;
+        self.field = None;
         self.keyframes.forget_pending();
     }
 }
 
-/// A skipped scan waiting for the local map to hold the registered scan
-/// before it (its place among those registered), and the odometry since.
-struct Waiting {
-    scan: usize,
-    t: f64,
-    after: usize,
-    odometry: Pose2,
-    /// Its thinned endpoints, in its frame.
-    points: Vec<Point2>,
-}
-
-/// Registers the scans of a log (any [`open_laser_log`] reads) that the
-/// motion filter keeps against a local map of those before, closing
-/// loops where it comes back (see [`LoopConfig`]); the skipped scans'
-/// poses refined near their odometry. `progress` is called once per scan read.
+/// Matches every scan of a log (any [`open_laser_log`] reads) against a
+/// local map of the scans registered before it; those that moved enough
+/// (see [`MotionFilter`]) are registered: the local map and the pose
+/// graph take them, and loops are closed where the log comes back (see
+/// [`LoopConfig`]). The others keep their matched pose relative to the
+/// registered scan before them. `progress` is called once per scan read.
 pub fn register_log(
     path: &Path,
     config: &LaserConfig,
@@ -903,31 +907,33 @@ pub fn register_log(
     let mut since: Option<Pose2> = Some(Pose2::IDENTITY);
     let mut log = open_laser_log(path, options)?;
     for scan in &mut log {
-        let mut scan = scan?;
+        let scan = scan?;
         progress();
-        let moved = match (since, scan.odometry) {
-            (Some(a), Some(o)) => Some(a * o),
-            _ => None,
-        };
-        if let Some(step) = moved.filter(|s| !meta.is_empty() && !config.motion_filter.keeps(s)) {
-            m.skip(&scan, meta.len() - 1, step);
-            since = Some(step);
-            continue;
-        }
-        let source = scan.odometry_source;
-        scan.odometry = moved.filter(|_| !meta.is_empty());
         let k = meta.len();
         let label = || match scan.line {
             0 => format!("{}: scan {}", path.display(), scan.scan),
             line => format!("{}: scan {} (line {line})", path.display(), scan.scan),
         };
-        // Registered against the local map, the odometry its prior.
-        let registered = m.take(k, &scan, &label)?;
+        since = since.zip(scan.odometry).map(|(a, o)| a * o);
+        let (points, reg) = if k == 0 {
+            (m.scan_points(&scan), None)
+        } else {
+            let (points, reg) = m.matched(&scan, &label)?;
+            // Matched near the last registered scan: the local map holds
+            // what it sees.
+            let relative = m.poses[k - 1].between(&reg.pose);
+            if reg.accepted && !config.motion_filter.keeps(&relative) {
+                m.skip(&scan, relative);
+                continue;
+            }
+            (points, Some(reg))
+        };
+        let registered = m.take(k, points, reg.as_ref());
         meta.push(ScanPose {
             scan: scan.scan,
             t: scan.t,
             pose: Pose2::IDENTITY,
-            odometry: scan.odometry.and(source),
+            odometry: since.filter(|_| k > 0).and(scan.odometry_source),
             registered,
         });
         since = Some(Pose2::IDENTITY);

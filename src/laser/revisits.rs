@@ -287,8 +287,12 @@ impl Keyframes {
             .map(|p| track.poses[f.scan].transform_point(*p))
             .collect();
         let field = LikelihoodField::from_points(&map, config.field_resolution_m, r.sigma_m, r.epsilon);
+        // A rival is another answer where it lies farther from the best
+        // than two matches that agree (see `confirm`).
         let reg_config = RegisterConfig {
             max_window_m: 3.0 * prior.sigma_forward_m.max(prior.sigma_left_m),
+            rival_apart_m: c.confirm_m,
+            rival_apart_rad: c.confirm_rad,
             ..r.clone()
         };
         let reg = register(&field, scan, prior, &reg_config)?;

@@ -147,6 +147,13 @@ pub struct RegisterConfig {
     pub spacing_m: f64,
     /// How the lattice is searched; both find the same poses.
     pub search: Search,
+    /// A rival ([`Registration::rival`]) lies more than this from the best
+    /// pose along x or y, metres, or more than `rival_apart_rad` in
+    /// heading; nearer peaks are the best answer's own spread (its
+    /// covariance), not another answer. Never under one lattice step.
+    pub rival_apart_m: f64,
+    /// The same in heading, radians.
+    pub rival_apart_rad: f64,
 }
 
 /// How [`register`] searches its lattice. Both find the same best pose and
@@ -169,7 +176,8 @@ impl Default for RegisterConfig {
     /// obstacles above and floor below `map_server`'s 0.65 and 0.196;
     /// a ±3σ window of at most ±1 m; endpoints counted once per 3 cm (2σ:
     /// closer ones share their error); at least 10 of them (30 cm of edge)
-    /// on mapped obstacles; the branch-and-bound search.
+    /// on mapped obstacles; the branch-and-bound search; any peak beyond the
+    /// best one's lattice neighbours a rival.
     fn default() -> Self {
         Self {
             sigma_m: 0.015,
@@ -182,6 +190,8 @@ impl Default for RegisterConfig {
             min_matched: 10,
             spacing_m: 0.03,
             search: Search::BranchAndBound,
+            rival_apart_m: 0.0,
+            rival_apart_rad: 0.0,
         }
     }
 }
@@ -281,7 +291,7 @@ pub fn register(
         Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at),
     };
     // Its best pose, spread and rival peak.
-    let (best, covariance, rival) = lattice.posterior(kept);
+    let (best, covariance, rival) = lattice.posterior(kept, config);
     let theta_step = lattice.theta_step;
     let start = Pose2::new(
         prior.mean.x + best.1 as f64 * res,
@@ -307,46 +317,6 @@ pub fn register(
         evaluated,
         rival,
     })
-}
-
-/// Refinement alone: from the prior's mean, the same climb below one cell
-/// that [`register`] ends with, without the lattice search; for a pose
-/// known to about a cell already (a scan between two registered ones,
-/// placed by a few centimetres of odometry). The covariance is the
-/// prior's; `evaluated` counts nothing. Not accepted where fewer than
-/// `min_matched` endpoints lie on mapped obstacles.
-pub fn refine_near(
-    field: &LikelihoodField,
-    points_robot: &[Point2],
-    prior: &PosePrior,
-    config: &RegisterConfig,
-) -> Result<Registration, RegisterError> {
-    prior.check()?;
-    let res = field.resolution_m();
-    let points = thin_points(points_robot, config.spacing_m.max(res));
-    let mut out = Registration {
-        pose: prior.mean,
-        covariance: prior.covariance(),
-        mean_log_likelihood: field.floor() as f64,
-        points: points.len(),
-        matched: 0,
-        accepted: false,
-        evaluated: 0,
-        rival: None,
-    };
-    if points.len() < config.min_matched || field.obstacle_points() == 0 {
-        return Ok(out);
-    }
-    let anchored = Anchored::new(field, &points, prior.mean, res);
-    let pose = refine(&anchored, prior, res, prior.sigma_theta_rad);
-    let (sum, matched) = anchored.evaluate(&pose);
-    out.mean_log_likelihood = sum / points.len() as f64;
-    out.matched = matched;
-    if matched >= config.min_matched {
-        out.pose = pose;
-        out.accepted = true;
-    }
-    Ok(out)
 }
 
 /// A lattice pose's score and its steps `(a, b, kt)` (see [`Lattice`]).
@@ -406,7 +376,11 @@ impl<'p> Lattice<'p> {
 
     /// The posterior of the poses a search kept: its best (the first of
     /// equal scores in lattice order), covariance and rival peak.
-    fn posterior(&self, mut kept: Vec<KeptPose>) -> (LatticeBest, Matrix3<f64>, Option<Rival>) {
+    fn posterior(
+        &self,
+        mut kept: Vec<KeptPose>,
+        config: &RegisterConfig,
+    ) -> (LatticeBest, Matrix3<f64>, Option<Rival>) {
         // In lattice order, rotation by rotation, row by row: the order of
         // the exhaustive search's sums.
         kept.sort_by_key(|&(kt, k)| (kt, k.b, k.a));
@@ -419,7 +393,12 @@ impl<'p> Lattice<'p> {
         });
         let posterior = kept.iter().map(|&(kt, k)| (k.score, self.pose(k.a, k.b, kt)));
         let covariance = lattice_covariance(posterior, best.0, self.res, self.theta_step);
-        let rival = rival_peak(&kept, best, self.nx, self.ny).map(|(kt, k)| {
+        let steps = |apart: f64, step: f64| ((apart / step).ceil() as i64).max(1);
+        let apart = Apart {
+            a: steps(config.rival_apart_m, self.res),
+            kt: steps(config.rival_apart_rad, self.theta_step),
+        };
+        let rival = rival_peak(&kept, best, self.nx, self.ny, apart).map(|(kt, k)| {
             let x = self.pose(k.a, k.b, kt);
             Rival {
                 pose: Pose2::new(x[0], x[1], x[2]),
@@ -580,20 +559,34 @@ fn bounded(
     (kept, nodes.into_inner())
 }
 
+/// How far apart in lattice steps two poses are different answers: more
+/// than `a` translation steps along either axis, or more than `kt`
+/// rotation steps.
+#[derive(Debug, Clone, Copy)]
+struct Apart {
+    a: i64,
+    kt: i64,
+}
+
+impl Apart {
+    /// Whether lattice pose `(kt, a, b)` is the best pose's own answer.
+    fn near(&self, best: LatticeBest, kt: i64, a: i64, b: i64) -> bool {
+        (kt - best.3).abs() <= self.kt && (a - best.1).abs() <= self.a && (b - best.2).abs() <= self.a
+    }
+}
+
 /// The best local maximum of the kept poses' scores (no kept lattice
-/// neighbour scores higher) that is neither the best pose nor its
-/// neighbour; the first in lattice order among equals. `kept` is sorted in
+/// neighbour scores higher) that is `apart` from the best pose; the
+/// first in lattice order among equals. `kept` is sorted in
 /// lattice order (rotation, then row, then column), every pose within the
 /// `nx × ny` translation steps of `lattice`.
 ///
 /// Neighbours are looked up in dense slabs of three rotations at a time
 /// (a wide search keeps a million poses: a map of them all would cost
 /// tens of megabytes).
-fn rival_peak(kept: &[KeptPose], best: LatticeBest, nx: i64, ny: i64) -> Option<KeptPose> {
+fn rival_peak(kept: &[KeptPose], best: LatticeBest, nx: i64, ny: i64, apart: Apart) -> Option<KeptPose> {
     let (sx, sy) = ((2 * nx + 1) as usize, (2 * ny + 1) as usize);
-    let near = |kt: i64, a: i64, b: i64| {
-        (kt - best.3).abs() <= 1 && (a - best.1).abs() <= 1 && (b - best.2).abs() <= 1
-    };
+    let near = |kt: i64, a: i64, b: i64| apart.near(best, kt, a, b);
     // Each rotation's run of `kept`.
     let mut runs: Vec<(i64, std::ops::Range<usize>)> = Vec::new();
     for (i, &(kt, _)) in kept.iter().enumerate() {

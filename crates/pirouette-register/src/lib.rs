@@ -4,8 +4,7 @@
 //!   mapped obstacle.
 //! - [`register`]: correlative search over translation and rotation around
 //!   a [`PosePrior`], local refinement below one cell, and the covariance
-//!   of the result ([`Registration`]), tuned by [`RegisterConfig`];
-//!   [`refine_near`]: the refinement alone, for a pose known to a cell.
+//!   of the result ([`Registration`]), tuned by [`RegisterConfig`].
 //! - [`PosePrior::after_forward`]: the belief after a commanded straight
 //!   move, from [`MotionNoise`].
 //! - [`endpoints`]: the obstacle points of a profile in its own frame.
@@ -31,7 +30,7 @@ mod correlative;
 mod field;
 
 pub use correlative::{
-    refine_near, register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
+    register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
 };
 pub use field::LikelihoodField;
 
