@@ -35,6 +35,8 @@ fn the_standard_graphs_reach_the_known_minima() {
                 "--json",
                 "--solver",
                 solver,
+                "--init",
+                "file",
             ]));
             let chi2 = s["chi2_final"].as_f64().unwrap();
             assert!(
@@ -100,6 +102,112 @@ fn chordal_initialisation_is_at_least_as_good_as_odometry() {
         c(&chordal, "chi2_final") <= c(&chain, "chi2_final") * (1.0 + 1e-6),
         "{chordal} {chain}"
     );
+}
+
+/// Default settings on a grid world with a tenth more loop closures, each
+/// measuring a relative pose drawn at random: both starts solved, the
+/// wrong loop closures found and left out, and the poses those of the
+/// graph without them.
+#[test]
+fn by_default_wrong_loop_closures_are_left_out_and_the_better_start_kept() {
+    use pirouette::geom::Pose2;
+    use pirouette::graph::{optimise, Edge, OptimiseConfig};
+    use rand::{Rng, SeedableRng};
+    let dir = tempfile::tempdir().unwrap();
+    let (mut graph, _) = synthetic::grid_world(400, 0.02, 0.01, 11);
+    pirouette::graph::init::chain(&mut graph).unwrap();
+    let clean = graph.clone();
+    let loops = graph.edges.iter().filter(|e| e.to != e.from + 1).count();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+    let info = graph.edges[0].information;
+    let wrong = loops.div_ceil(10);
+    for _ in 0..wrong {
+        let i = rng.random_range(0..graph.poses.len() - 2);
+        let j = rng.random_range(i + 2..graph.poses.len());
+        let z = Pose2::new(
+            rng.random_range(-5.0..5.0),
+            rng.random_range(-5.0..5.0),
+            rng.random_range(-3.0..3.0),
+        );
+        graph.edges.push(Edge::new(i, j, z, info));
+    }
+    let file = dir.path().join("outliers.g2o");
+    let ids = (0..graph.poses.len() as u64).collect();
+    write_g2o(
+        &file,
+        &G2oGraph {
+            ids,
+            graph,
+            has_vertices: true,
+        },
+    )
+    .unwrap();
+    let out = dir.path().join("out.g2o");
+    let s = stats(&pirouette(&[
+        "graph",
+        "optimise",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(s["rejected"].as_u64().unwrap() as usize, wrong, "{s}");
+    assert_eq!(s["outliers"], "reject");
+    let tried = s["init_tried"].as_object().unwrap();
+    assert!(tried.contains_key("file") && tried.contains_key("chordal"), "{s}");
+    let kept = s["init"].as_str().unwrap();
+    let least = tried
+        .values()
+        .map(|v| v.as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(tried[kept].as_f64().unwrap(), least, "{s}");
+    // Every edge written back; the poses solve the graph without the wrong ones.
+    let written = read_g2o(&out).unwrap();
+    assert_eq!(written.graph.edges.len(), clean.edges.len() + wrong);
+    let mut alone = clean.clone();
+    let solved = optimise(&mut alone, &OptimiseConfig::default()).unwrap();
+    let mut at_written = clean;
+    at_written.poses = written.graph.poses.clone();
+    let chi2 = at_written.chi2();
+    assert!(
+        (chi2 - solved.chi2_final).abs() <= 1e-5 * solved.chi2_final,
+        "χ² {chi2} against {}",
+        solved.chi2_final
+    );
+    assert!(
+        (s["chi2_kept"].as_f64().unwrap() - chi2).abs() <= 1e-6 * chi2,
+        "{s}"
+    );
+    // Kept: plain least squares over every edge, far worse on the true ones.
+    let out_keep = dir.path().join("keep.g2o");
+    let k = stats(&pirouette(&[
+        "graph",
+        "optimise",
+        file.to_str().unwrap(),
+        "--out",
+        out_keep.to_str().unwrap(),
+        "--json",
+        "--outliers",
+        "keep",
+    ]));
+    assert_eq!(k["rejected"].as_u64(), Some(0));
+    let mut at_kept = at_written;
+    at_kept.poses = read_g2o(&out_keep).unwrap().graph.poses;
+    assert!(at_kept.chi2() > 10.0 * chi2, "{} against {chi2}", at_kept.chi2());
+    // A robust kernel is another answer to the same question: not both.
+    let both = pirouette(&[
+        "graph",
+        "optimise",
+        file.to_str().unwrap(),
+        "--out",
+        out_keep.to_str().unwrap(),
+        "--outliers",
+        "reject",
+        "--robust",
+        "cauchy",
+    ]);
+    assert!(!both.status.success());
+    assert!(String::from_utf8_lossy(&both.stderr).contains("give one"));
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! `pirouette graph optimise`: a g2o pose graph in, the optimised graph out.
 
 use anyhow::{bail, Context, Result};
-use pirouette::graph::{init, optimise as solve, Kernel, OptimiseConfig, Residual, Solver};
+use pirouette::graph::outliers::{solve_from_starts, OutlierConfig, Start};
+use pirouette::graph::{Kernel, OptimiseConfig, Residual, Solver};
 use pirouette::io::{read_g2o, write_g2o};
 use serde_json::json;
 use std::path::PathBuf;
@@ -22,9 +23,17 @@ pub struct GraphOptimiseArgs {
     #[arg(long, default_value = "lm", value_parser = ["gn", "lm"])]
     solver: String,
     /// A robust kernel on the loop closures (every edge but those joining
-    /// consecutive poses i → i+1): huber or cauchy.
+    /// consecutive poses i → i+1): huber or cauchy. In place of
+    /// `--outliers reject`.
     #[arg(long, value_parser = ["huber", "cauchy"])]
     robust: Option<String>,
+    /// Wrong loop closures: reject (where a loop closure's χ² at the
+    /// solution is above 16.27, χ²₃ at 99.9 %, the wrong ones are found by
+    /// graduated non-convexity and left out of the solve; the output keeps
+    /// every edge) or keep (plain least squares over every edge). Default:
+    /// reject, keep with --robust.
+    #[arg(long, value_parser = ["reject", "keep"])]
+    outliers: Option<String>,
     /// The robust kernel's width, in whitened residual units (standard
     /// deviations).
     #[arg(long, default_value_t = 1.0)]
@@ -35,11 +44,12 @@ pub struct GraphOptimiseArgs {
     /// Stop when a step lowers the cost by less than this share of it.
     #[arg(long, default_value_t = 1e-6)]
     relative_decrease: f64,
-    /// Starting poses: file (the file's vertices; odometry chaining where
-    /// it has none), chain (odometry chaining from the edges) or chordal
+    /// Starting poses: best (file and chordal both solved, the lower cost
+    /// kept), file (the file's vertices; odometry chaining where it has
+    /// none), chain (odometry chaining from the edges) or chordal
     /// (rotations first, then positions, from the edges: for graphs whose
     /// odometry drifts far).
-    #[arg(long, default_value = "file", value_parser = ["file", "chain", "chordal"])]
+    #[arg(long, default_value = "best", value_parser = ["best", "file", "chain", "chordal"])]
     init: String,
     /// The residual minimised: g2o ((x, y, θ) of z⁻¹·xi⁻¹·xj) or log (its
     /// SE(2) logarithm, as GTSAM takes it). χ² is reported in g2o's either
@@ -66,6 +76,13 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
     if a.residual == "log" {
         g.graph.residual = Residual::Log;
     }
+    let reject = match (a.outliers.as_deref(), &a.robust) {
+        (Some("reject"), Some(_)) => {
+            bail!("--outliers reject and --robust are two answers to wrong loop closures: give one")
+        }
+        (Some(o), _) => o == "reject",
+        (None, robust) => robust.is_none(),
+    };
     if let Some(kind) = &a.robust {
         let kernel = match kind.as_str() {
             "huber" => Kernel::Huber {
@@ -91,23 +108,56 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
     };
     let t0 = Instant::now();
     let what = || format!("{}", a.input.display());
-    match a.init.as_str() {
-        "chordal" => init::chordal(&mut g.graph).with_context(what)?,
-        "chain" => init::chain(&mut g.graph).with_context(what)?,
-        _ if !g.has_vertices => init::chain(&mut g.graph).with_context(what)?,
-        _ => {}
-    }
-    let summary = solve(&mut g.graph, &config).with_context(what)?;
+    let given = if g.has_vertices {
+        Start::Given
+    } else {
+        Start::Chain
+    };
+    let starts: Vec<Start> = match a.init.as_str() {
+        "chordal" => vec![Start::Chordal],
+        "chain" => vec![Start::Chain],
+        "file" => vec![given],
+        _ => vec![given, Start::Chordal],
+    };
+    // Loop closures: every edge but those joining consecutive poses.
+    let loops: Vec<usize> = (g.graph.edges.iter().enumerate())
+        .filter(|(_, e)| e.to != e.from + 1)
+        .map(|(k, _)| k)
+        .collect();
+    let outliers = OutlierConfig {
+        solve: OptimiseConfig {
+            max_iterations: config
+                .max_iterations
+                .min(OutlierConfig::default().solve.max_iterations),
+            ..config.clone()
+        },
+        ..OutlierConfig::default()
+    };
+    let solved = solve_from_starts(
+        &mut g.graph,
+        &starts,
+        &loops,
+        reject.then_some(&outliers),
+        &config,
+    )
+    .with_context(what)?;
+    let summary = &solved.rejection.summary;
     let time_s = t0.elapsed().as_secs_f64();
     write_g2o(&a.out, &g)?;
+    let rejected = solved.rejection.rejected.len();
+    let chi2_all = g.graph.chi2();
     if a.json {
+        let tried: serde_json::Map<String, serde_json::Value> = (solved.tried.iter())
+            .map(|t| (t.start.name().to_owned(), json!(t.cost)))
+            .collect();
         outln!(
             "{}",
             json!({
                 "poses": g.graph.poses.len(),
                 "edges": g.graph.edges.len(),
-                "chi2_initial": summary.chi2_initial,
-                "chi2_final": summary.chi2_final,
+                "chi2_initial": solved.chi2_start,
+                "chi2_final": chi2_all,
+                "chi2_kept": summary.chi2_final,
                 "cost_final": summary.cost_final,
                 "residual": a.residual,
                 "iterations": summary.iterations,
@@ -115,17 +165,25 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
                 "read_s": read_s,
                 "converged": summary.converged,
                 "solver": a.solver,
-                "init": a.init,
+                "init": solved.start.name(),
+                "init_tried": tried,
+                "outliers": if reject { "reject" } else { "keep" },
+                "loop_closures": loops.len(),
+                "rejected": rejected,
+                "gnc_rounds": solved.rejection.rounds,
             })
         )?;
     } else {
+        let tried: Vec<String> = (solved.tried.iter())
+            .map(|t| format!("{} {:.6e}", t.start.name(), t.cost))
+            .collect();
         outln!(
-            "{}: {} poses, {} edges; χ² {:.6e} → {:.6e} in {} iterations ({}), {:.3} s; written to {}",
+            "{}: {} poses, {} edges; χ² {:.6e} → {:.6e} in {} iterations ({}), {:.3} s; started from {} (costs: {}); written to {}",
             a.input.display(),
             g.graph.poses.len(),
             g.graph.edges.len(),
-            summary.chi2_initial,
-            summary.chi2_final,
+            solved.chi2_start,
+            chi2_all,
             summary.iterations,
             if summary.converged {
                 "converged"
@@ -133,8 +191,18 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
                 "NOT converged: the iteration cap"
             },
             time_s,
+            solved.start.name(),
+            tried.join(", "),
             a.out.display()
         )?;
+        if rejected > 0 {
+            outln!(
+                "{rejected} of {} loop closures left out as wrong (graduated non-convexity, {} rounds); χ² over the edges kept {:.6e}",
+                loops.len(),
+                solved.rejection.rounds,
+                summary.chi2_final
+            )?;
+        }
     }
     Ok(())
 }

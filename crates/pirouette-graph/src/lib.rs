@@ -12,6 +12,8 @@
 //! - [`GaussNewton`]: single steps on a graph whose pattern is analysed
 //!   once (for benchmarks and callers that drive their own iteration).
 //! - [`synthetic::grid_world`]: grid-world graphs of any size.
+//! - [`outliers::reject_outliers`]: wrong loop closures found by graduated
+//!   non-convexity and left out of the solve.
 //! - [`init`]: starting poses from the edges (odometry chaining, or
 //!   rotations first by chordal relaxation for graphs that defeat a local
 //!   solver started from odometry).
@@ -41,6 +43,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod init;
+pub mod outliers;
 mod solve;
 mod sparse;
 pub mod synthetic;
@@ -88,6 +91,9 @@ pub enum GraphError {
         /// The held pose.
         held: usize,
     },
+    /// A solve was given no start to solve from.
+    #[error("no start to solve from")]
+    NoStart,
     /// The linear algebra failed.
     #[error("the solver failed: {problem}")]
     Solver {
