@@ -125,12 +125,7 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
         .map(|(k, _)| k)
         .collect();
     let outliers = OutlierConfig {
-        solve: OptimiseConfig {
-            max_iterations: config
-                .max_iterations
-                .min(OutlierConfig::default().solve.max_iterations),
-            ..config.clone()
-        },
+        solve: config.clone(),
         ..OutlierConfig::default()
     };
     let solved = solve_from_starts(

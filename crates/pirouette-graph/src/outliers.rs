@@ -27,7 +27,11 @@ pub struct OutlierConfig {
     pub mu_factor: f64,
     /// At most this many rounds.
     pub max_rounds: usize,
-    /// Each round's solve.
+    /// At most this many solver steps a round (each starts where the last
+    /// ended).
+    pub round_iterations: usize,
+    /// The solves before and after the rounds (and the rounds' but for
+    /// their steps).
     pub solve: OptimiseConfig,
 }
 
@@ -39,10 +43,8 @@ impl Default for OutlierConfig {
             threshold_chi2: CHI2_3_999,
             mu_factor: 1.4,
             max_rounds: 100,
-            solve: OptimiseConfig {
-                max_iterations: 20,
-                ..OptimiseConfig::default()
-            },
+            round_iterations: 20,
+            solve: OptimiseConfig::default(),
         }
     }
 }
@@ -83,7 +85,7 @@ pub fn reject_outliers(
             ),
         });
     }
-    let summary = optimise(graph, &config.solve_to_end())?;
+    let summary = optimise(graph, &config.solve)?;
     let chi2 = |g: &PoseGraph, k: usize| {
         let e = &g.edges[k];
         e.chi2(&g.poses[e.from], &g.poses[e.to])
@@ -119,7 +121,7 @@ pub fn reject_outliers(
             break;
         }
         weigh(graph, candidates, &weights, &original);
-        let solved = optimise(graph, &config.solve);
+        let solved = optimise(graph, &config.round());
         restore(graph, &original);
         solved?;
         mu *= config.mu_factor;
@@ -131,7 +133,7 @@ pub fn reject_outliers(
     // The inliers' own least squares, to convergence.
     let kept: Vec<f64> = weights.iter().map(|&w| if w < 0.5 { 0.0 } else { 1.0 }).collect();
     weigh(graph, candidates, &kept, &original);
-    let summary = optimise(graph, &config.solve_to_end());
+    let summary = optimise(graph, &config.solve);
     restore(graph, &original);
     Ok(Rejection {
         rejected,
@@ -141,10 +143,10 @@ pub fn reject_outliers(
 }
 
 impl OutlierConfig {
-    /// The round's solve run to convergence (at least 100 steps).
-    fn solve_to_end(&self) -> OptimiseConfig {
+    /// A round's solve.
+    fn round(&self) -> OptimiseConfig {
         OptimiseConfig {
-            max_iterations: self.solve.max_iterations.max(100),
+            max_iterations: self.round_iterations.min(self.solve.max_iterations),
             ..self.solve.clone()
         }
     }
