@@ -4,6 +4,19 @@ use crate::util::{pirouette, shared};
 use pirouette::graph::{synthetic, PoseGraph};
 use pirouette::io::{read_g2o, write_g2o, G2oGraph};
 
+/// `pirouette graph optimise INPUT --out OUT` with `extra` arguments.
+fn optimise_cmd(input: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "graph",
+        "optimise",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    pirouette(&args)
+}
+
 fn stats(out: &std::process::Output) -> serde_json::Value {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8_lossy(&out.stdout);
@@ -143,14 +156,7 @@ fn by_default_wrong_loop_closures_are_left_out_and_the_better_start_kept() {
     )
     .unwrap();
     let out = dir.path().join("out.g2o");
-    let s = stats(&pirouette(&[
-        "graph",
-        "optimise",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--json",
-    ]));
+    let s = stats(&optimise_cmd(&file, &out, &["--json"]));
     assert_eq!(s["rejected"].as_u64().unwrap() as usize, wrong, "{s}");
     assert_eq!(s["outliers"], "reject");
     let tried = s["init_tried"].as_object().unwrap();
@@ -180,32 +186,13 @@ fn by_default_wrong_loop_closures_are_left_out_and_the_better_start_kept() {
     );
     // Kept: plain least squares over every edge, far worse on the true ones.
     let out_keep = dir.path().join("keep.g2o");
-    let k = stats(&pirouette(&[
-        "graph",
-        "optimise",
-        file.to_str().unwrap(),
-        "--out",
-        out_keep.to_str().unwrap(),
-        "--json",
-        "--outliers",
-        "keep",
-    ]));
+    let k = stats(&optimise_cmd(&file, &out_keep, &["--json", "--outliers", "keep"]));
     assert_eq!(k["rejected"].as_u64(), Some(0));
     let mut at_kept = at_written;
     at_kept.poses = read_g2o(&out_keep).unwrap().graph.poses;
     assert!(at_kept.chi2() > 10.0 * chi2, "{} against {chi2}", at_kept.chi2());
     // A robust kernel is another answer to the same question: not both.
-    let both = pirouette(&[
-        "graph",
-        "optimise",
-        file.to_str().unwrap(),
-        "--out",
-        out_keep.to_str().unwrap(),
-        "--outliers",
-        "reject",
-        "--robust",
-        "cauchy",
-    ]);
+    let both = optimise_cmd(&file, &out_keep, &["--outliers", "reject", "--robust", "cauchy"]);
     assert!(!both.status.success());
     assert!(String::from_utf8_lossy(&both.stderr).contains("give one"));
 }

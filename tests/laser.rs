@@ -20,29 +20,30 @@ fn true_path() -> Vec<Pose2> {
 
 /// `n` times round the ring corridor (the last side left out).
 fn laps(n: usize) -> Vec<Pose2> {
+    ring_path(4 * n - 1, 0.25, 3, 30.0)
+}
+
+/// `sides` sides of the ring corridor from its first corner, in steps of
+/// `step_m` along each, then `turns` in-place turns of `turn_deg` at its
+/// end.
+fn ring_path(sides: usize, step_m: f64, turns: usize, turn_deg: f64) -> Vec<Pose2> {
     let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5]];
     let mut path = vec![Pose2::new(2.0, 1.5, 0.0)];
-    for lap in 0..n {
-        for c in 0..4 {
-            if lap + 1 == n && c == 3 {
-                break;
-            }
-            let [x1, y1] = corners[(c + 1) % 4];
-            let start = *path.last().expect("a start");
-            let len = (x1 - start.x).hypot(y1 - start.y);
-            let steps = (len / 0.25).round() as usize;
-            for s in 1..=steps {
-                let f = s as f64 / steps as f64;
-                path.push(Pose2::new(
-                    start.x + f * (x1 - start.x),
-                    start.y + f * (y1 - start.y),
-                    start.theta,
-                ));
-            }
-            for _ in 0..3 {
-                let p = *path.last().expect("a pose");
-                path.push(Pose2::new(p.x, p.y, p.theta + 30f64.to_radians()));
-            }
+    for side in 0..sides {
+        let [x1, y1] = corners[(side + 1) % 4];
+        let start = *path.last().expect("a start");
+        let steps = ((x1 - start.x).hypot(y1 - start.y) / step_m).round() as usize;
+        for s in 1..=steps {
+            let f = s as f64 / steps as f64;
+            path.push(Pose2::new(
+                start.x + f * (x1 - start.x),
+                start.y + f * (y1 - start.y),
+                start.theta,
+            ));
+        }
+        for _ in 0..turns {
+            let p = *path.last().expect("a pose");
+            path.push(Pose2::new(p.x, p.y, p.theta + turn_deg.to_radians()));
         }
     }
     path
@@ -280,25 +281,7 @@ fn the_motion_filter_judges_the_match_not_odometry_that_misses_a_turn() {
     // steps of which the odometry sees a tenth: summed, the odometry of
     // a corner's turn stays under the filter's 5° for eight scans while
     // the robot turns 48°.
-    let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5]];
-    let mut path = vec![Pose2::new(2.0, 1.5, 0.0)];
-    for c in 0..3 {
-        let [x1, y1] = corners[c + 1];
-        let start = *path.last().expect("a start");
-        let steps = ((x1 - start.x).hypot(y1 - start.y) / 0.05).round() as usize;
-        for s in 1..=steps {
-            let f = s as f64 / steps as f64;
-            path.push(Pose2::new(
-                start.x + f * (x1 - start.x),
-                start.y + f * (y1 - start.y),
-                start.theta,
-            ));
-        }
-        for _ in 0..15 {
-            let p = *path.last().expect("a pose");
-            path.push(Pose2::new(p.x, p.y, p.theta + 6f64.to_radians()));
-        }
-    }
+    let path = ring_path(3, 0.05, 15, 6.0);
     let sim = LogSim {
         odometry_turn_scale: 0.1,
         ..LogSim::sick()
