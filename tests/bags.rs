@@ -3,7 +3,7 @@
 //! mount taken off; the shared benchmark bags in every format; bad bags
 //! refused with the file and the topic or offset named.
 
-use crate::util::{pirouette, shared};
+use crate::util::{pirouette, ring_path, shared};
 use pirouette::geom::Pose2;
 use pirouette::io::bag::wire::{encode, FramePose, ScanMsg, Wire};
 use pirouette::io::bag::write::{
@@ -23,26 +23,7 @@ fn mount() -> Pose2 {
 /// Once round the ring corridor ([`Walls::ring`]) in 5 cm steps (most
 /// left out by the motion filter), turning 10° at a time at the corners.
 fn path() -> Vec<Pose2> {
-    let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5], [2.0, 1.5]];
-    let mut out = vec![Pose2::new(2.0, 1.5, 0.0)];
-    for c in 0..4 {
-        let [x1, y1] = corners[c + 1];
-        let start = *out.last().expect("a start");
-        let steps = ((x1 - start.x).hypot(y1 - start.y) / 0.05).round() as usize;
-        for s in 1..=steps {
-            let f = s as f64 / steps as f64;
-            out.push(Pose2::new(
-                start.x + f * (x1 - start.x),
-                start.y + f * (y1 - start.y),
-                start.theta,
-            ));
-        }
-        for _ in 0..9 {
-            let p = *out.last().expect("a pose");
-            out.push(Pose2::new(p.x, p.y, p.theta + 10f64.to_radians()));
-        }
-    }
-    out
+    ring_path(4, 0.05, 9, 10.0)
 }
 
 /// The recording's messages in `wire`: per pose a scan from the mounted

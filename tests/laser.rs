@@ -1,7 +1,7 @@
 //! Laser logs: a simulated log with known poses mapped and scored, the
 //! commands on it, and the shared real logs.
 
-use crate::util::{pirouette, shared};
+use crate::util::{pirouette, ring_path, shared};
 use pirouette::eval::laser::{
     aligned_ate, evaluate_laser, log_trajectories, relative_errors, LogTrajectories,
 };
@@ -21,32 +21,6 @@ fn true_path() -> Vec<Pose2> {
 /// `n` times round the ring corridor (the last side left out).
 fn laps(n: usize) -> Vec<Pose2> {
     ring_path(4 * n - 1, 0.25, 3, 30.0)
-}
-
-/// `sides` sides of the ring corridor from its first corner, in steps of
-/// `step_m` along each, then `turns` in-place turns of `turn_deg` at its
-/// end.
-fn ring_path(sides: usize, step_m: f64, turns: usize, turn_deg: f64) -> Vec<Pose2> {
-    let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5]];
-    let mut path = vec![Pose2::new(2.0, 1.5, 0.0)];
-    for side in 0..sides {
-        let [x1, y1] = corners[(side + 1) % 4];
-        let start = *path.last().expect("a start");
-        let steps = ((x1 - start.x).hypot(y1 - start.y) / step_m).round() as usize;
-        for s in 1..=steps {
-            let f = s as f64 / steps as f64;
-            path.push(Pose2::new(
-                start.x + f * (x1 - start.x),
-                start.y + f * (y1 - start.y),
-                start.theta,
-            ));
-        }
-        for _ in 0..turns {
-            let p = *path.last().expect("a pose");
-            path.push(Pose2::new(p.x, p.y, p.theta + turn_deg.to_radians()));
-        }
-    }
-    path
 }
 
 /// A CARMEN log of the path: 180 beams from −90° with 1 cm range noise,

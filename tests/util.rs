@@ -1,5 +1,6 @@
 //! Helpers shared by the end-to-end tests.
 
+use pirouette::geom::Pose2;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -55,4 +56,31 @@ pub fn rendered(scene: &str, seed: u64) -> PathBuf {
             out
         })
         .clone()
+}
+
+/// A path along `sides` sides of the ring corridor
+/// (`pirouette::sim::Walls::ring`) from its first corner, in steps of
+/// `step_m` along each, then `turns` in-place turns of `turn_deg` at its
+/// end.
+pub fn ring_path(sides: usize, step_m: f64, turns: usize, turn_deg: f64) -> Vec<Pose2> {
+    let corners = [[2.0, 1.5], [10.0, 1.5], [10.0, 6.5], [2.0, 6.5]];
+    let mut path = vec![Pose2::new(2.0, 1.5, 0.0)];
+    for side in 0..sides {
+        let [x1, y1] = corners[(side + 1) % 4];
+        let start = *path.last().expect("a start");
+        let steps = ((x1 - start.x).hypot(y1 - start.y) / step_m).round() as usize;
+        for s in 1..=steps {
+            let f = s as f64 / steps as f64;
+            path.push(Pose2::new(
+                start.x + f * (x1 - start.x),
+                start.y + f * (y1 - start.y),
+                start.theta,
+            ));
+        }
+        for _ in 0..turns {
+            let p = *path.last().expect("a pose");
+            path.push(Pose2::new(p.x, p.y, p.theta + turn_deg.to_radians()));
+        }
+    }
+    path
 }
