@@ -319,3 +319,52 @@ fn rival_peak_is_the_best_local_maximum_away_from_the_best() {
         "{found} cases with a rival, {none} without"
     );
 }
+
+/// A field that takes a world's points a batch at a time is, cell for
+/// cell, the field made of them all at once, and a registration against
+/// it (its lazily built tree included) is the same to the
+/// bit (the count of poses scored aside: the rotations' searches share
+/// their best score in whatever order the threads reach it).
+#[test]
+fn a_growing_field_is_the_field_of_all_its_points() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    let mut compared = 0;
+    for case in 0..6 {
+        let mut world = room();
+        // Walls that widen the lattice step by step, on every side.
+        for k in 0..4 {
+            let (dx, dy) = ([2.0, -2.5, 0.0, 0.5][k], [0.0, 0.5, 2.2, -2.0][k]);
+            world.extend((0..300).map(|n| Point2::new(dx + 0.004 * n as f64, dy + rng.random_range(-0.01..0.01))));
+        }
+        let whole = field_of(&world);
+        let mut growing = LikelihoodField::growing(0.01, 0.015, 0.2);
+        for chunk in world.chunks(world.len() / 5 + case) {
+            assert!(growing.insert(chunk));
+            // The tree is built again after each batch.
+            assert!(growing.nearest_distance_m(chunk[0]).is_some_and(|d| d < 1e-12));
+        }
+        let (min, w, h, _) = whole.raw();
+        for j in min.1 - 3..min.1 + h as i64 + 3 {
+            for i in min.0 - 3..min.0 + w as i64 + 3 {
+                assert_eq!(growing.cell(i, j).to_bits(), whole.cell(i, j).to_bits(), "({i}, {j})");
+                compared += 1;
+            }
+        }
+        let truth = Pose2::new(0.7, 0.6, rng.random_range(-3.0..3.0));
+        let seen = seen_from(&world, &truth, 1.5, 0.003, case as u64);
+        let prior = PosePrior {
+            mean: truth * Pose2::new(0.03, -0.02, 0.02),
+            sigma_forward_m: 0.05,
+            sigma_left_m: 0.05,
+            sigma_theta_rad: 0.04,
+        };
+        let config = RegisterConfig::default();
+        let a = register(&whole, &seen, &prior, &config).unwrap();
+        let b = register(&growing, &seen, &prior, &config).unwrap();
+        assert!(a.accepted && a.evaluated > 0, "case {case}");
+        assert_eq!(Registration { evaluated: a.evaluated, ..b }, a, "case {case}");
+    }
+    assert!(compared > 6 * 100_000, "{compared} cells compared");
+    // A field of another kind takes no points.
+    assert!(!field_of(&room()).insert(&[Point2::new(0.0, 0.0)]));
+}
