@@ -12,10 +12,11 @@
 //! - [`io`]: the `rop-dataset/1` format and other files;
 //! - [`vision`]: floor segmentation and ROPs from images;
 //! - [`sim`]: the renderer of scenes into datasets;
-//! - [`frame`]: the back end's sensor-neutral input;
-//! - [`laser`]: CARMEN laser logs mapped by the same registration and grid;
-//! - [`pipeline`]: whole-dataset runs; [`mapping`]: maps of datasets;
-//!   [`eval`]: scores against truth.
+//! - the engine (`pirouette-slam`): [`frame`], the sensor-neutral input;
+//!   [`pipeline`], a camera dataset's run; [`mapping`], its map; [`laser`],
+//!   laser logs through the same registration and grid; [`localise`],
+//!   place queries;
+//! - [`eval`]: scores against truth; [`plot`]: pictures.
 //!
 //! ```no_run
 //! use pirouette::io::Dataset;
@@ -34,13 +35,9 @@ pub use pirouette_places as places;
 pub use pirouette_profile as profile;
 pub use pirouette_register as register;
 pub use pirouette_sim as sim;
+pub use pirouette_slam::{frame, laser, localise, mapping, pipeline};
 pub use pirouette_vision as vision;
 
 pub mod camera_report;
 pub mod eval;
-pub mod frame;
-pub mod laser;
-pub mod localise;
-pub mod mapping;
-pub mod pipeline;
 pub mod plot;

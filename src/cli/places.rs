@@ -5,7 +5,8 @@ use anyhow::{bail, Context, Result};
 use pirouette::geom::{wrap_angle, Pose2};
 use pirouette::io::{read_place_index, write_place_index, Dataset};
 use pirouette::localise::{file_sweeps, localise, Answer, LocaliseConfig, Verdict};
-use pirouette::pipeline::{self, DatasetSweep};
+use pirouette::frame::DatasetSweep;
+use pirouette::pipeline;
 use pirouette::places::{PlaceIndex, SignatureConfig};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -82,7 +83,7 @@ pub fn build(a: PlacesBuildArgs) -> Result<()> {
     for path in &a.datasets {
         let ds = super::open_dataset(path)?;
         let swept = sweep_with_bar(&ds, &a.sweep)?;
-        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept)?;
+        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept.sweeps)?;
         eprintln!("{}: {filed} places", ds.manifest.name);
         if !left_out.is_empty() {
             eprintln!(

@@ -58,7 +58,7 @@ pub fn profile_plots(
 }
 
 /// One top-down diagram per sweep: `sweep-<id>.png`.
-pub fn sweep_plots(sweeps: &[pirouette::pipeline::DatasetSweep], dir: &Path) -> Result<()> {
+pub fn sweep_plots(sweeps: &[pirouette::frame::DatasetSweep], dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for s in sweeps {
         save_png(

@@ -3,7 +3,8 @@
 use super::profile::ProfileOptions;
 use anyhow::{bail, Result};
 use pirouette::eval::{tally_sweeps, SweepTally};
-use pirouette::pipeline::{self, DatasetSweep, PipelineConfig};
+use pirouette::frame::DatasetSweep;
+use pirouette::pipeline::{self, PipelineConfig};
 use pirouette::profile::matching::{MatchConfig, Measure};
 use pirouette::profile::sweep::SweepConfig;
 use serde_json::json;

@@ -416,7 +416,7 @@ impl SweepTally {
 /// some frame has no true pose.
 pub fn tally_sweeps(
     ds: &pirouette_io::Dataset,
-    sweeps: &[crate::pipeline::DatasetSweep],
+    sweeps: &[crate::frame::DatasetSweep],
 ) -> Option<SweepTally> {
     let truth = ds.truth_poses()?;
     let mut tally = SweepTally::default();

@@ -8,6 +8,7 @@
 use pirouette_geom::Pose2;
 use pirouette_io::{Dataset, LaserScan, Motion};
 use pirouette_profile::matching::MatchView;
+use pirouette_profile::sweep::Sweep;
 use pirouette_profile::Rop;
 
 /// How the robot got from the previous frame to this one.
@@ -139,4 +140,16 @@ pub fn laser_frame(scan: &LaserScan, max_range_m: f32) -> Frame {
 /// The motions of a camera dataset's frames, from its manifest alone.
 pub fn camera_motions(ds: &Dataset) -> Vec<Option<Motion>> {
     ds.manifest.frames.iter().map(|f| f.motion).collect()
+}
+
+/// One sweep of a dataset: its frames (indices into the manifest, in
+/// capture order) and their assembly.
+#[derive(Debug, Clone)]
+pub struct DatasetSweep {
+    /// The sweep's id in the manifest.
+    pub id: u32,
+    /// Frame indices of the sweep.
+    pub frames: Vec<usize>,
+    /// Verified turns, headings, loop closure and the 360° profile.
+    pub sweep: Sweep,
 }

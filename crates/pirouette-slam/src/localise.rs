@@ -9,7 +9,7 @@
 //! the best where its score clears a threshold and no look-alike comes
 //! close.
 
-use crate::pipeline::{DatasetSweep, Swept};
+use crate::frame::DatasetSweep;
 use anyhow::{Context, Result};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::{Point2, Pose2};
@@ -135,15 +135,15 @@ impl Answer {
     }
 }
 
-/// Files every sweep of a run in the index, as places of the dataset
-/// named `name`. A sweep that saw too little of the circle is not filed;
+/// Files the sweeps of a dataset's run in the index, as places of the
+/// dataset. A sweep that saw too little of the circle is not filed;
 /// returns how many were filed and the ids of those left out.
-pub fn file_sweeps(index: &mut PlaceIndex, ds: &Dataset, swept: &Swept) -> Result<(usize, Vec<u32>)> {
+pub fn file_sweeps(index: &mut PlaceIndex, ds: &Dataset, sweeps: &[DatasetSweep]) -> Result<(usize, Vec<u32>)> {
     let name = &ds.manifest.name;
     let dataset = index.dataset_id(name);
     let mut left_out = Vec::new();
     let mut filed = 0;
-    for s in &swept.sweeps {
+    for s in sweeps {
         let signature = match index.transforms().signature(&s.sweep.rop) {
             Ok(sig) => sig,
             Err(PlacesError::IncompleteSweep { .. }) => {

@@ -7,13 +7,13 @@
 //! ([`sweep_profiles`], [`sweeps`], [`crate::mapping::build_map`]) are
 //! public for benchmarks and for callers that need one stage alone.
 
-use crate::frame::{camera_frames, camera_motions, Frame, FrameProfiles};
+use crate::frame::{camera_frames, camera_motions, DatasetSweep, Frame, FrameProfiles};
 use crate::mapping::{build_map, check_extent, MapConfig, MapRun};
 use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
 use pirouette_io::{Dataset, Motion};
 use pirouette_profile::matching::MatchView;
-use pirouette_profile::sweep::{assemble_views, join, pivot_from_turns, Sweep, SweepConfig};
+use pirouette_profile::sweep::{assemble_views, join, pivot_from_turns, SweepConfig};
 use pirouette_profile::Rop;
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
@@ -299,18 +299,6 @@ pub fn sweep_profiles(
             cues,
         },
     })
-}
-
-/// One sweep of a dataset: its frames (indices into the manifest, in
-/// capture order) and their assembly.
-#[derive(Debug, Clone)]
-pub struct DatasetSweep {
-    /// The sweep's id in the manifest.
-    pub id: u32,
-    /// Frame indices of the sweep.
-    pub frames: Vec<usize>,
-    /// Verified turns, headings, loop closure and the 360° profile.
-    pub sweep: Sweep,
 }
 
 /// Groups frames into sweeps (a new sweep starts at a frame without a

@@ -11,13 +11,13 @@
 //! building for hours needs little more than one that goes round once.
 
 use crate::frame::laser_frame;
-use crate::geom::{Point2, Pose2};
-use crate::graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
-use crate::grid::{GridConfig, OccupancyGrid};
-use crate::io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
+use pirouette_geom::{Point2, Pose2};
+use pirouette_graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
+use pirouette_grid::{GridConfig, OccupancyGrid};
+use pirouette_io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
 use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
-use crate::profile::Rop;
-use crate::register::{
+use pirouette_profile::Rop;
+use pirouette_register::{
     endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, Registration,
 };
 use anyhow::{bail, Context, Result};
@@ -410,7 +410,7 @@ pub struct RegisteredLog {
     pub skipped: Vec<SkippedScan>,
     /// What the log's reader found (format, topics, the laser's mount,
     /// messages skipped).
-    pub info: crate::io::LogInfo,
+    pub info: pirouette_io::LogInfo,
     /// The loop closures accepted by matching, kept or dropped by the graph.
     pub loops: Vec<LoopClosure>,
     /// Searches for a revisit made.
@@ -677,7 +677,7 @@ impl<'c> Mapper<'c> {
         Ok(RegisteredLog {
             scans: meta,
             skipped,
-            info: crate::io::LogInfo {
+            info: pirouette_io::LogInfo {
                 format: "",
                 scan_topic: None,
                 motion: None,

@@ -4,8 +4,8 @@
 //! long log's graph, and the memory its solves take, then grow with its
 //! nodes, not its scans.
 
-use crate::geom::Pose2;
-use crate::graph::{Edge as GraphEdge, PoseGraph};
+use pirouette_geom::Pose2;
+use pirouette_graph::{Edge as GraphEdge, PoseGraph};
 use crate::mapping::graph::Edge as MeasuredEdge;
 use nalgebra::Matrix3;
 
@@ -120,11 +120,11 @@ impl Nodes {
             };
             let from_b = poses[a + 1] * self.span[a + 1].inverse() * *o;
             let f = (k - self.scans[a]) as f64 / (b_scan - self.scans[a]) as f64;
-            let turn = crate::geom::wrap_angle(from_b.theta - from_a.theta);
+            let turn = pirouette_geom::wrap_angle(from_b.theta - from_a.theta);
             Pose2::new(
                 from_a.x + f * (from_b.x - from_a.x),
                 from_a.y + f * (from_b.y - from_a.y),
-                crate::geom::wrap_angle(from_a.theta + f * turn),
+                pirouette_geom::wrap_angle(from_a.theta + f * turn),
             )
         })
     }
@@ -133,7 +133,7 @@ impl Nodes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::graph::{optimise, OptimiseConfig};
+    use pirouette_graph::{optimise, OptimiseConfig};
 
     fn cov(sx: f64, st: f64) -> Matrix3<f64> {
         Matrix3::from_diagonal(&nalgebra::Vector3::new(sx * sx, sx * sx, st * st))

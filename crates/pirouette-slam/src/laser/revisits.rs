@@ -5,10 +5,10 @@
 //! and verified by registration.
 
 use super::LaserConfig;
-use crate::geom::{Point2, Pose2};
-use crate::places::{PlaceIndex, PlaceMeta, PlacesError, QueryConfig, SignatureConfig};
-use crate::profile::Rop;
-use crate::register::{register, LikelihoodField, PosePrior, RegisterConfig, Registration};
+use pirouette_geom::{Point2, Pose2};
+use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, QueryConfig, SignatureConfig};
+use pirouette_profile::Rop;
+use pirouette_register::{register, LikelihoodField, PosePrior, RegisterConfig, Registration};
 use anyhow::Result;
 use std::f64::consts::{PI, TAU};
 

@@ -3,7 +3,7 @@
 
 use super::{MapConfig, Placed};
 use crate::frame::Frame;
-use crate::pipeline::DatasetSweep;
+use crate::frame::DatasetSweep;
 use anyhow::Result;
 use pirouette_geom::Point2;
 use pirouette_register::{register, LikelihoodField, PosePrior};

@@ -3,7 +3,7 @@
 
 use super::{far_reach_m, MapConfig, Placed};
 use crate::frame::Frame;
-use crate::pipeline::DatasetSweep;
+use crate::frame::DatasetSweep;
 use anyhow::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::OccupancyGrid;

@@ -2,7 +2,7 @@
 //! map built so far, then fused into one occupancy grid.
 
 use crate::frame::Frame;
-use crate::pipeline::DatasetSweep;
+use crate::frame::DatasetSweep;
 use anyhow::{bail, Result};
 use nalgebra::Matrix3;
 use pirouette_geom::{Point2, Pose2};

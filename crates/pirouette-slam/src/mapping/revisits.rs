@@ -5,7 +5,7 @@
 
 use super::Placed;
 use crate::localise::{localise_signature, LocaliseConfig};
-use crate::pipeline::DatasetSweep;
+use crate::frame::DatasetSweep;
 use anyhow::{Context, Result};
 use pirouette_geom::Pose2;
 use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, SignatureConfig, StoredProfile};
