@@ -56,7 +56,7 @@ pub fn compare(
                     continue;
                 }
                 ranges.push(a.norm());
-                gaps.push((a.x - b.x).hypot(a.y - b.y));
+                gaps.push(a.distance(b));
                 biases.push((b.norm() - a.norm()) / a.norm());
             }
         }

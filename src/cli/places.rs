@@ -337,7 +337,7 @@ pub fn eval_places(a: EvalPlacesArgs) -> Result<()> {
             let p = stored[m.place];
             let truth = Pose2::new(p[0], p[1], p[2]).inverse() * query;
             (
-                (m.pose.x - truth.x).hypot(m.pose.y - truth.y),
+                m.pose.translation().distance(truth.translation()),
                 wrap_angle(m.pose.theta - truth.theta).to_degrees().abs(),
             )
         });

@@ -345,13 +345,12 @@ pub fn trajectory_scores(estimated: &[Pose2], truth: &[Pose2]) -> TrajectoryScor
     let n = estimated.len().max(1) as f64;
     let est: Vec<Point2> = estimated.iter().map(Pose2::translation).collect();
     let tru: Vec<Point2> = truth.iter().map(Pose2::translation).collect();
-    let dist = |a: Point2, b: Point2| (a.x - b.x).hypot(a.y - b.y);
-    let anchored: Vec<f64> = est.iter().zip(&tru).map(|(a, b)| dist(*a, *b)).collect();
+    let anchored: Vec<f64> = est.iter().zip(&tru).map(|(a, b)| a.distance(*b)).collect();
     let align = align_rigid(&est, &tru);
     let aligned_sq: f64 = est
         .iter()
         .zip(&tru)
-        .map(|(a, b)| dist(align.transform_point(*a), *b).powi(2))
+        .map(|(a, b)| align.transform_point(*a).distance(*b).powi(2))
         .sum();
     let heading_sq: f64 = estimated
         .iter()
@@ -471,7 +470,7 @@ pub fn map_quality(occupied: &[Point2], world: &World, visible: &[Point2], toler
                 (-1..=1).any(|dj| {
                     buckets
                         .get(&(i + di, j + dj))
-                        .is_some_and(|b| b.iter().any(|p| (p.x - v.x).hypot(p.y - v.y) <= tolerance_m))
+                        .is_some_and(|b| b.iter().any(|p| p.distance(**v) <= tolerance_m))
                 })
             })
         })

@@ -84,7 +84,7 @@ pub fn score_relations(trajectory: &[StampedPose], relations: &[Relation]) -> Re
             continue;
         };
         let rel = a.pose.between(&b.pose);
-        trans.push((rel.x - r.pose.x).hypot(rel.y - r.pose.y));
+        trans.push(rel.translation().distance(r.pose.translation()));
         rot.push(wrap_angle(rel.theta - r.pose.theta).abs().to_degrees());
     }
     let squares = |v: &[f64]| v.iter().map(|e| e * e).collect::<Vec<f64>>();

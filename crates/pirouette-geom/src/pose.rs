@@ -1,7 +1,7 @@
 //! SE(2) poses.
 
 use crate::angle::wrap_angle;
-use nalgebra::{Isometry2, Vector2};
+use nalgebra::{Isometry2, Matrix3, Vector2};
 use serde::{Deserialize, Serialize};
 use std::ops::Mul;
 
@@ -23,6 +23,11 @@ impl Point2 {
     /// Distance from the frame origin.
     pub fn norm(self) -> f64 {
         self.x.hypot(self.y)
+    }
+
+    /// Distance to another point of the same frame.
+    pub fn distance(self, other: Point2) -> f64 {
+        (self.x - other.x).hypot(self.y - other.y)
     }
 
     /// Bearing from the frame origin, radians counter-clockwise from +x.
@@ -107,6 +112,14 @@ impl Pose2 {
         self.inverse() * *other
     }
 
+    /// The matrix that turns an `(x, y, θ)` offset or covariance given in
+    /// this pose's frame into its parent's: its rotation on the position,
+    /// the heading unchanged (`R · Σ · Rᵀ` turns a covariance).
+    pub fn tangent_rotation(&self) -> Matrix3<f64> {
+        let (s, c) = self.theta.sin_cos();
+        Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+    }
+
     /// As a nalgebra isometry, for linear-algebra code.
     pub fn to_isometry(&self) -> Isometry2<f64> {
         Isometry2::new(Vector2::new(self.x, self.y), self.theta)
@@ -179,6 +192,23 @@ mod tests {
         #[test]
         fn between_recovers_relative(a in pose(), b in pose()) {
             prop_assert!(close(&(a * a.between(&b)), &b));
+        }
+
+        /// A small step taken in the pose's frame lands, to first order,
+        /// where the tangent rotation sends it; distance is what the
+        /// transform keeps.
+        #[test]
+        fn tangent_rotation_turns_steps_and_distance_is_kept(a in pose(), b in pose(), p in pose()) {
+            let step = nalgebra::Vector3::new(1e-7 * b.x, 1e-7 * b.y, 1e-7 * b.theta);
+            let moved = a * Pose2::new(step.x, step.y, step.z);
+            let turned = a.tangent_rotation() * step;
+            prop_assert!((moved.x - a.x - turned.x).abs() < 1e-12);
+            prop_assert!((moved.y - a.y - turned.y).abs() < 1e-12);
+            prop_assert!((wrap_angle(moved.theta - a.theta) - turned.z).abs() < 1e-12);
+            let (u, v) = (b.translation(), p.translation());
+            let d = u.distance(v);
+            prop_assert!((a.transform_point(u).distance(a.transform_point(v)) - d).abs() < 1e-9);
+            prop_assert!((d - (u.x - v.x).hypot(u.y - v.y)).abs() == 0.0);
         }
     }
 }

@@ -76,8 +76,7 @@ impl PosePrior {
 
     /// The prior's covariance in world `(x, y, θ)`.
     pub fn covariance(&self) -> Matrix3<f64> {
-        let (s, c) = self.mean.theta.sin_cos();
-        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let r = self.mean.tangent_rotation();
         let d = Matrix3::from_diagonal(&Vector3::new(
             self.sigma_forward_m.powi(2),
             self.sigma_left_m.powi(2),
@@ -756,7 +755,7 @@ impl<'a> Anchored<'a> {
         let near = (eps + (1.0 - eps) * (-2.0f64).exp()).ln();
         // An endpoint `p` moves from its start by at most the translation
         // plus `|p|` times the turn.
-        let shift = (pose.x - self.start.x).hypot(pose.y - self.start.y);
+        let shift = pose.translation().distance(self.start.translation());
         let turn = wrap_angle(pose.theta - self.start.theta).abs();
         let mut sum = 0.0;
         let mut matched = 0;

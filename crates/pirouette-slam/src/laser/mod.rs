@@ -772,8 +772,7 @@ impl<'c> Mapper<'c> {
     /// A registered pose's covariance (in the world frame) in the frame of
     /// scan `i`'s current pose, with the floors added.
     fn local_covariance(&self, i: usize, covariance: &Matrix3<f64>) -> Matrix3<f64> {
-        let (s, c) = self.poses[i].theta.sin_cos();
-        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let r = self.poses[i].tangent_rotation();
         r.transpose() * covariance * r + edge_floor()
     }
 

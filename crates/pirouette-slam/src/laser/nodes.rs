@@ -60,7 +60,7 @@ impl Nodes {
             0.0,
             1.0,
         );
-        let j_step = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let j_step = z.tangent_rotation();
         let composed = *z * *step;
         let sigma = j_z * sigma * j_z.transpose() + j_step * covariance * j_step.transpose();
         let last = self.scans.len() - 1;

@@ -88,7 +88,7 @@ impl Keyframes {
         let here = track.poses[j].translation();
         self.frames.iter().all(|f| {
             let t = track.poses[f.scan].translation();
-            (t.x - here.x).hypot(t.y - here.y) >= config.loops.keyframe_spacing_m
+            t.distance(here) >= config.loops.keyframe_spacing_m
         })
     }
 
@@ -221,7 +221,7 @@ impl Keyframes {
             let recent = found.to - p.to <= 2 * c.every_scans;
             let at = track.poses[found.to];
             let (a, b) = (correction(p) * at, correction(&found) * at);
-            let shift = (a.x - b.x).hypot(a.y - b.y);
+            let shift = a.translation().distance(b.translation());
             let turn = pirouette_geom::wrap_angle(a.theta - b.theta).abs();
             recent && shift <= c.confirm_m && turn <= c.confirm_rad
         });
@@ -244,7 +244,7 @@ impl Keyframes {
             .filter(|(_, f)| track.along_m[k] - f.last_along_m >= c.min_separation_m)
             .filter_map(|(i, f)| {
                 let d = track.poses[f.scan].translation();
-                let dist = (d.x - here.x).hypot(d.y - here.y);
+                let dist = d.distance(here);
                 let since = track.along_m[k] - along(i);
                 let radius = (c.radius_m + c.radius_per_m * since).min(c.max_radius_m);
                 (dist <= radius).then_some((i, dist, radius))

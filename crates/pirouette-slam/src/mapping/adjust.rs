@@ -92,8 +92,8 @@ fn sweep_edges(
         far_reach_m(rop, config).max(rop.max_range_m as f64)
     };
     let near = |i: usize, j: usize| {
-        let (a, b) = (placed[i].pose, placed[j].pose);
-        (a.x - b.x).hypot(a.y - b.y) <= reach(i) + reach(j)
+        let (a, b) = (placed[i].pose.translation(), placed[j].pose.translation());
+        a.distance(b) <= reach(i) + reach(j)
     };
     // Every near pair from where the two were placed; a recognised revisit
     // out of reach from where the place index put it.

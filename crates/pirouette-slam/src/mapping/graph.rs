@@ -24,9 +24,8 @@ impl Edge {
     /// frame (`z⁻¹ · xᵢ⁻¹ · xⱼ`): the information turned into that frame,
     /// so that the cost of any poses is the same.
     pub(crate) fn to_graph(self) -> GraphEdge {
-        let (s, c) = self.z.theta.sin_cos();
         // The residual in i's frame is R(θ_z) times the one in z's frame.
-        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let r = self.z.tangent_rotation();
         let o = r.transpose() * self.info * r;
         // Symmetric to the bit, as the graph checks.
         let o = 0.5 * (o + o.transpose());
