@@ -35,6 +35,7 @@ pub use pirouette_places as places;
 pub use pirouette_profile as profile;
 pub use pirouette_register as register;
 pub use pirouette_sim as sim;
+pub use pirouette_slam as slam;
 pub use pirouette_slam::{frame, laser, localise, mapping, pipeline};
 pub use pirouette_vision as vision;
 

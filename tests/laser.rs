@@ -415,6 +415,24 @@ fn bad_laser_logs_are_refused_naming_the_file() {
         !run.status.success() && err.contains("binary.log:1") && err.contains("UTF-8"),
         "{err}"
     );
+    // A camera's settings given for a log are refused, not ignored.
+    let log = dir.path().join("good.log");
+    std::fs::write(&log, simulated_log(&laps(1), true, 1)).expect("write");
+    let out = dir.path().join("never");
+    let run = pirouette(&[
+        "map",
+        log.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+        "--bin-deg",
+        "0.5",
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("good.log is a laser log"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing written");
 }
 
 #[test]

@@ -11,10 +11,11 @@ use pirouette::io::Motion;
 use pirouette::io::{map_names, write_map_dir, Dataset, PoseRecord};
 use pirouette::mapping::{progress_steps, MapConfig, MapRun, SweepPose};
 use pirouette::pipeline::{self, Mapped, PipelineConfig, Stage, Swept};
+use pirouette::slam::Sensor;
 use std::path::{Path, PathBuf};
 
 /// Settings of mapping.
-#[derive(clap::Args, Debug, Clone)]
+#[derive(clap::Args, Debug, Clone, PartialEq)]
 pub struct MapOptions {
     #[command(flatten)]
     sweep: SweepOptions,
@@ -117,7 +118,7 @@ pub struct EvalMapArgs {
 }
 
 fn open_camera_dataset(path: &Path) -> Result<Dataset> {
-    if path.is_file() && path.file_name().is_some_and(|n| n != "dataset.json") {
+    if Sensor::of(path) == Sensor::Laser {
         bail!(
             "{}: not a camera dataset (give its folder or dataset.json; a laser log maps with `pirouette map LOG`)",
             path.display()
@@ -226,10 +227,18 @@ pub fn evaluate(
 /// `pirouette map`.
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
-    // A camera dataset is a folder (or its dataset.json); any other file,
-    // and a ROS 2 bag's folder, is read as a laser log.
-    let ros2_folder = a.dataset.join("metadata.yaml").is_file();
-    if ros2_folder || (a.dataset.is_file() && a.dataset.file_name().is_some_and(|n| n != "dataset.json")) {
+    if Sensor::of(&a.dataset) == Sensor::Laser {
+        // Only the cell side applies to a laser log.
+        let camera_only = MapOptions {
+            resolution: None,
+            ..a.options.clone()
+        };
+        if camera_only != MapOptions::default() {
+            bail!(
+                "{} is a laser log: of the map settings only --resolution applies to it (the others are a camera's)",
+                a.dataset.display()
+            );
+        }
         let mut config = pirouette::laser::LaserConfig::default();
         if let Some(r) = a.options.resolution {
             config.grid.resolution_m = r;

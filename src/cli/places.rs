@@ -2,10 +2,10 @@
 
 use super::sweep::SweepOptions;
 use anyhow::{bail, Context, Result};
+use pirouette::frame::DatasetSweep;
 use pirouette::geom::{wrap_angle, Pose2};
 use pirouette::io::{read_place_index, write_place_index, Dataset};
 use pirouette::localise::{file_sweeps, localise, Answer, LocaliseConfig, Verdict};
-use pirouette::frame::DatasetSweep;
 use pirouette::pipeline;
 use pirouette::places::{PlaceIndex, SignatureConfig};
 use serde_json::json;

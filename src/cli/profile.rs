@@ -10,7 +10,7 @@ use serde_json::json;
 use std::path::PathBuf;
 
 /// Settings shared by the commands that build profiles.
-#[derive(clap::Args, Debug, Clone)]
+#[derive(clap::Args, Debug, Clone, PartialEq)]
 pub struct ProfileOptions {
     /// Camera model: paper (the four tape measurements) or pinhole. Default:
     /// the most accurate one the dataset's camera allows.

@@ -11,7 +11,7 @@ use serde_json::json;
 use std::path::PathBuf;
 
 /// Settings of rotation verification.
-#[derive(clap::Args, Debug, Clone)]
+#[derive(clap::Args, Debug, Clone, PartialEq)]
 pub struct SweepOptions {
     #[command(flatten)]
     profile: ProfileOptions,

@@ -414,10 +414,7 @@ impl SweepTally {
 
 /// Tallies the sweeps of a dataset against its true headings; `None` when
 /// some frame has no true pose.
-pub fn tally_sweeps(
-    ds: &pirouette_io::Dataset,
-    sweeps: &[crate::frame::DatasetSweep],
-) -> Option<SweepTally> {
+pub fn tally_sweeps(ds: &pirouette_io::Dataset, sweeps: &[crate::frame::DatasetSweep]) -> Option<SweepTally> {
     let truth = ds.truth_poses()?;
     let mut tally = SweepTally::default();
     for s in sweeps {

@@ -25,8 +25,56 @@
 //! ```
 #![deny(missing_docs)]
 
+use std::path::Path;
+
 pub mod frame;
 pub mod laser;
 pub mod localise;
 pub mod mapping;
 pub mod pipeline;
+
+/// The sensor whose input a path holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sensor {
+    /// A camera dataset (`rop-dataset/1`): its folder or its `dataset.json`.
+    Camera,
+    /// A laser log: a CARMEN log, a ROS 1 bag, a ROS 2 bag's folder (with
+    /// its `metadata.yaml`) or its storage file.
+    Laser,
+}
+
+impl Sensor {
+    /// Which sensor's input `path` holds, by its shape alone (the reader
+    /// then checks its content): a ROS 2 bag's folder and any file but a
+    /// `dataset.json` are laser logs, any other folder a camera dataset.
+    pub fn of(path: &Path) -> Sensor {
+        let ros2_folder = path.join("metadata.yaml").is_file();
+        let log_file = path.is_file() && path.file_name().is_some_and(|n| n != "dataset.json");
+        if ros2_folder || log_file {
+            Sensor::Laser
+        } else {
+            Sensor::Camera
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_path_says_which_sensor_it_holds() {
+        let dir = std::env::temp_dir().join(format!("pirouette-sensor-{}", std::process::id()));
+        let ros2 = dir.join("ros2");
+        std::fs::create_dir_all(&ros2).unwrap();
+        std::fs::write(ros2.join("metadata.yaml"), "rosbag2_bagfile_information: {}\n").unwrap();
+        std::fs::write(dir.join("dataset.json"), "{}").unwrap();
+        std::fs::write(dir.join("intel.log"), "").unwrap();
+        assert_eq!(Sensor::of(&dir), Sensor::Camera);
+        assert_eq!(Sensor::of(&dir.join("dataset.json")), Sensor::Camera);
+        assert_eq!(Sensor::of(&dir.join("intel.log")), Sensor::Laser);
+        assert_eq!(Sensor::of(&ros2), Sensor::Laser);
+        assert_eq!(Sensor::of(&ros2.join("metadata.yaml")), Sensor::Laser);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
