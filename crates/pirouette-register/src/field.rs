@@ -1,9 +1,9 @@
 //! The likelihood field of a map: how well a point explains an obstacle.
 
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use std::sync::OnceLock;
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
+use std::sync::OnceLock;
 
 /// Per-cell log-likelihood of a profile endpoint falling there: a Gaussian
 /// in the distance to the nearest mapped obstacle point, mixed with a
@@ -229,7 +229,10 @@ impl LikelihoodField {
                 ),
             )
         };
-        let (nw, nh) = ((new_hi.0 - new_lo.0 + 1) as usize, (new_hi.1 - new_lo.1 + 1) as usize);
+        let (nw, nh) = (
+            (new_hi.0 - new_lo.0 + 1) as usize,
+            (new_hi.1 - new_lo.1 + 1) as usize,
+        );
         let (dx, dy) = ((min.0 - new_lo.0) as usize, (min.1 - new_lo.1) as usize);
         let floor = self.floor;
         let moved = |old: &[f32]| -> Vec<f32> {

@@ -138,7 +138,11 @@ impl Answer {
 /// Files the sweeps of a dataset's run in the index, as places of the
 /// dataset. A sweep that saw too little of the circle is not filed;
 /// returns how many were filed and the ids of those left out.
-pub fn file_sweeps(index: &mut PlaceIndex, ds: &Dataset, sweeps: &[DatasetSweep]) -> Result<(usize, Vec<u32>)> {
+pub fn file_sweeps(
+    index: &mut PlaceIndex,
+    ds: &Dataset,
+    sweeps: &[DatasetSweep],
+) -> Result<(usize, Vec<u32>)> {
     let name = &ds.manifest.name;
     let dataset = index.dataset_id(name);
     let mut left_out = Vec::new();

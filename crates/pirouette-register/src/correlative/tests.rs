@@ -334,7 +334,9 @@ fn a_growing_field_is_the_field_of_all_its_points() {
         // Walls that widen the lattice step by step, on every side.
         for k in 0..4 {
             let (dx, dy) = ([2.0, -2.5, 0.0, 0.5][k], [0.0, 0.5, 2.2, -2.0][k]);
-            world.extend((0..300).map(|n| Point2::new(dx + 0.004 * n as f64, dy + rng.random_range(-0.01..0.01))));
+            world.extend(
+                (0..300).map(|n| Point2::new(dx + 0.004 * n as f64, dy + rng.random_range(-0.01..0.01))),
+            );
         }
         let whole = field_of(&world);
         let mut growing = LikelihoodField::growing(0.01, 0.015, 0.2);
@@ -346,7 +348,11 @@ fn a_growing_field_is_the_field_of_all_its_points() {
         let (min, w, h, _) = whole.raw();
         for j in min.1 - 3..min.1 + h as i64 + 3 {
             for i in min.0 - 3..min.0 + w as i64 + 3 {
-                assert_eq!(growing.cell(i, j).to_bits(), whole.cell(i, j).to_bits(), "({i}, {j})");
+                assert_eq!(
+                    growing.cell(i, j).to_bits(),
+                    whole.cell(i, j).to_bits(),
+                    "({i}, {j})"
+                );
                 compared += 1;
             }
         }
@@ -362,7 +368,14 @@ fn a_growing_field_is_the_field_of_all_its_points() {
         let a = register(&whole, &seen, &prior, &config).unwrap();
         let b = register(&growing, &seen, &prior, &config).unwrap();
         assert!(a.accepted && a.evaluated > 0, "case {case}");
-        assert_eq!(Registration { evaluated: a.evaluated, ..b }, a, "case {case}");
+        assert_eq!(
+            Registration {
+                evaluated: a.evaluated,
+                ..b
+            },
+            a,
+            "case {case}"
+        );
     }
     assert!(compared > 6 * 100_000, "{compared} cells compared");
     // A field of another kind takes no points.

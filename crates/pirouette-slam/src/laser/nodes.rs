@@ -4,10 +4,10 @@
 //! long log's graph, and the memory its solves take, then grow with its
 //! nodes, not its scans.
 
-use pirouette_geom::Pose2;
-use pirouette_graph::{Edge as GraphEdge, PoseGraph};
 use crate::mapping::graph::Edge as MeasuredEdge;
 use nalgebra::Matrix3;
+use pirouette_geom::Pose2;
+use pirouette_graph::{Edge as GraphEdge, PoseGraph};
 
 /// The graph, and where each scan hangs from it.
 #[derive(Debug)]

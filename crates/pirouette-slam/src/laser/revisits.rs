@@ -5,11 +5,11 @@
 //! and verified by registration.
 
 use super::LaserConfig;
+use anyhow::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, QueryConfig, SignatureConfig};
 use pirouette_profile::Rop;
 use pirouette_register::{register, LikelihoodField, PosePrior, RegisterConfig, Registration};
-use anyhow::Result;
 use std::f64::consts::{PI, TAU};
 
 /// Bins of a 360° view ([`view`]): 1° each, as the place index samples.

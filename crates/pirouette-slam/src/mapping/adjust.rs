@@ -5,8 +5,8 @@
 
 use super::fields::{field_in, seen_by};
 use super::{far_reach_m, forward_distance, graph, last_frame, refine_pass, revisits, MapConfig, Placed};
-use crate::frame::Frame;
 use crate::frame::DatasetSweep;
+use crate::frame::Frame;
 use anyhow::Result;
 use nalgebra::Matrix3;
 use pirouette_geom::{Point2, Pose2};

@@ -2,8 +2,8 @@
 //! measured them, anchored by each frame's own registration.
 
 use super::{MapConfig, Placed};
-use crate::frame::Frame;
 use crate::frame::DatasetSweep;
+use crate::frame::Frame;
 use anyhow::Result;
 use pirouette_geom::Point2;
 use pirouette_register::{register, LikelihoodField, PosePrior};

@@ -2,8 +2,8 @@
 //! registration matches against.
 
 use super::{far_reach_m, MapConfig, Placed};
-use crate::frame::Frame;
 use crate::frame::DatasetSweep;
+use crate::frame::Frame;
 use anyhow::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::OccupancyGrid;

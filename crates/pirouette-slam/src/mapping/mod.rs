@@ -1,8 +1,8 @@
 //! Maps of whole datasets: sweeps registered one after another against the
 //! map built so far, then fused into one occupancy grid.
 
-use crate::frame::Frame;
 use crate::frame::DatasetSweep;
+use crate::frame::Frame;
 use anyhow::{bail, Result};
 use nalgebra::Matrix3;
 use pirouette_geom::{Point2, Pose2};

@@ -4,8 +4,8 @@
 //! joint adjustment, whatever the drift says of where the two lie.
 
 use super::Placed;
-use crate::localise::{localise_signature, LocaliseConfig};
 use crate::frame::DatasetSweep;
+use crate::localise::{localise_signature, LocaliseConfig};
 use anyhow::{Context, Result};
 use pirouette_geom::Pose2;
 use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, SignatureConfig, StoredProfile};
