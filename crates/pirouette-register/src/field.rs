@@ -3,7 +3,6 @@
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
-use std::sync::OnceLock;
 
 /// Per-cell log-likelihood of a profile endpoint falling there: a Gaussian
 /// in the distance to the nearest mapped obstacle point, mixed with a
@@ -22,21 +21,14 @@ use std::sync::OnceLock;
 /// query) for refinement below one cell, where interpolating the lattice
 /// would flatten the peak of a wall lying between two cell centres.
 ///
-/// A field made by [`LikelihoodField::growing`] takes points in place
-/// ([`LikelihoodField::insert`]): its lattice grows where they land and
-/// only the cells within their reach are written, so that a local map
-/// that takes one scan at a time costs one scan's work per scan.
-///
 /// # Memory
 /// Five bytes per cell of the map's extent (plus a border of `3σ`), and
 /// the k-d tree of the points (about 20 bytes each: coordinates and an
-/// index); a growing field eight bytes more per cell (each cell's nearest
-/// distance) and no free-space flags.
+/// index).
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
-    /// Built at the first query after the points change; `None` without
-    /// points.
-    tree: OnceLock<Option<ImmutableKdTree<f64, 2>>>,
+    /// `None` without points.
+    tree: Option<ImmutableKdTree<f64, 2>>,
     /// The points of the tree, by its item index.
     coords: Vec<[f64; 2]>,
     epsilon: f64,
@@ -52,13 +44,6 @@ pub struct LikelihoodField {
     free: Vec<bool>,
     floor: f32,
     occupied: usize,
-    /// Whether the field takes points in place (no free space, no region).
-    growing: bool,
-    /// A growing field's squared distance from each cell centre to its
-    /// nearest point (infinite beyond reach).
-    d2: Vec<f64>,
-    /// Cells about a point within which the lattice holds its Gaussian.
-    reach: i64,
 }
 
 impl LikelihoodField {
@@ -132,127 +117,6 @@ impl LikelihoodField {
         )
     }
 
-    /// An empty field that takes obstacle points in place
-    /// ([`LikelihoodField::insert`]), on a lattice of `resolution_m` cells,
-    /// with no knowledge of free space.
-    pub fn growing(resolution_m: f64, sigma_m: f64, epsilon: f64) -> Self {
-        let mut field = Self::build(&[], None, None, resolution_m, sigma_m, epsilon, epsilon);
-        field.growing = true;
-        field
-    }
-
-    /// Adds obstacle points to a field made by [`LikelihoodField::growing`]:
-    /// the cells within their reach that come nearer to a point take their
-    /// new values. The field is then the one
-    /// [`LikelihoodField::from_points`] makes of all its points, to the bit
-    /// (a value only rises as its nearest point comes nearer). Points that
-    /// are not finite are left out; a field of another kind is left as it
-    /// is and `false` returned.
-    pub fn insert(&mut self, points: &[Point2]) -> bool {
-        if !self.growing {
-            return false;
-        }
-        let points: Vec<Point2> = (points.iter().copied())
-            .filter(|p| p.x.is_finite() && p.y.is_finite())
-            .collect();
-        if points.is_empty() {
-            return true;
-        }
-        let reach = self.reach;
-        let res = self.resolution_m;
-        let cell = |p: &Point2| ((p.x / res).floor() as i64, (p.y / res).floor() as i64);
-        let (mut lo, mut hi) = ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN));
-        for p in &points {
-            let (i, j) = cell(p);
-            lo = (lo.0.min(i - reach), lo.1.min(j - reach));
-            hi = (hi.0.max(i + reach), hi.1.max(j + reach));
-        }
-        self.cover(lo, hi);
-        let (min_cell, width) = (self.min_cell, self.width);
-        // Squared distances stamped first, each cell that came nearer to a
-        // point marked (its distance stored negated) and listed once ...
-        let mut nearer: Vec<usize> = Vec::new();
-        for p in &points {
-            let (i, j) = cell(p);
-            for y in (j - reach - min_cell.1) as usize..=(j + reach - min_cell.1) as usize {
-                let ddy = ((min_cell.1 + y as i64) as f64 + 0.5) * res - p.y;
-                for x in (i - reach - min_cell.0) as usize..=(i + reach - min_cell.0) as usize {
-                    let ddx = ((min_cell.0 + x as i64) as f64 + 0.5) * res - p.x;
-                    let d2 = ddx * ddx + ddy * ddy;
-                    let k = y * width + x;
-                    let old = self.d2[k];
-                    if d2 < old.abs() {
-                        if !old.is_sign_negative() {
-                            nearer.push(k);
-                        }
-                        self.d2[k] = -d2;
-                    }
-                }
-            }
-        }
-        // ... then their values, once per cell, as `build` makes them from
-        // the nearest distance.
-        let (two_sigma2, epsilon) = (self.two_sigma2, self.epsilon);
-        for k in nearer {
-            let d2 = -self.d2[k];
-            self.d2[k] = d2;
-            self.values[k] = (epsilon + (1.0 - epsilon) * (-d2 / two_sigma2).exp()).ln() as f32;
-        }
-        self.coords.extend(points.iter().map(|p| [p.x, p.y]));
-        self.occupied += points.len();
-        self.tree = OnceLock::new();
-        true
-    }
-
-    /// Grows a growing field's lattice (values, distances) to hold the
-    /// cells from `lo` to `hi`, with room to spare: a quarter of its size
-    /// on each side that grows, so that a path walked step by step costs
-    /// a logarithmic number of copies.
-    fn cover(&mut self, lo: (i64, i64), hi: (i64, i64)) {
-        let (min, w, h) = (self.min_cell, self.width as i64, self.height as i64);
-        let max = (min.0 + w - 1, min.1 + h - 1);
-        if w > 0 && lo.0 >= min.0 && lo.1 >= min.1 && hi.0 <= max.0 && hi.1 <= max.1 {
-            return;
-        }
-        let (spare_x, spare_y) = ((w / 4).max(16), (h / 4).max(16));
-        let (new_lo, new_hi) = if w == 0 {
-            ((lo.0 - 16, lo.1 - 16), (hi.0 + 16, hi.1 + 16))
-        } else {
-            (
-                (
-                    if lo.0 < min.0 { lo.0 - spare_x } else { min.0 },
-                    if lo.1 < min.1 { lo.1 - spare_y } else { min.1 },
-                ),
-                (
-                    if hi.0 > max.0 { hi.0 + spare_x } else { max.0 },
-                    if hi.1 > max.1 { hi.1 + spare_y } else { max.1 },
-                ),
-            )
-        };
-        let (nw, nh) = (
-            (new_hi.0 - new_lo.0 + 1) as usize,
-            (new_hi.1 - new_lo.1 + 1) as usize,
-        );
-        let (dx, dy) = ((min.0 - new_lo.0) as usize, (min.1 - new_lo.1) as usize);
-        let floor = self.floor;
-        let moved = |old: &[f32]| -> Vec<f32> {
-            let mut new = vec![floor; nw * nh];
-            for (y, row) in old.chunks_exact(self.width.max(1)).enumerate() {
-                new[(y + dy) * nw + dx..][..row.len()].copy_from_slice(row);
-            }
-            new
-        };
-        self.values = moved(&self.values);
-        let mut d2 = vec![f64::INFINITY; nw * nh];
-        for (y, row) in self.d2.chunks_exact(self.width.max(1)).enumerate() {
-            d2[(y + dy) * nw + dx..][..row.len()].copy_from_slice(row);
-        }
-        self.d2 = d2;
-        self.min_cell = new_lo;
-        self.width = nw;
-        self.height = nh;
-    }
-
     fn build(
         points: &[Point2],
         free_space: Option<(&OccupancyGrid, f64)>,
@@ -283,9 +147,12 @@ impl LikelihoodField {
             .copied()
             .filter(|p| p.x.is_finite() && p.y.is_finite() && near_region(p))
             .collect();
+        // Built once and only queried: the immutable tree, balanced at
+        // construction, answers faster.
         let coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+        let tree = (!coords.is_empty()).then(|| ImmutableKdTree::new_from_slice(&coords));
         let mut field = Self {
-            tree: OnceLock::new(),
+            tree,
             coords,
             epsilon,
             epsilon_free,
@@ -298,9 +165,6 @@ impl LikelihoodField {
             free: Vec::new(),
             floor,
             occupied: 0,
-            growing: false,
-            d2: Vec::new(),
-            reach,
         };
         let Some((min_cell, max_cell)) = lattice_extent(&points, free_space, region, reach, &cell) else {
             return field;
@@ -403,25 +267,16 @@ impl LikelihoodField {
         }
     }
 
-    /// The k-d tree of the points, built at the first query since they
-    /// changed (only queried: the immutable tree, balanced at construction,
-    /// answers faster); `None` without points.
-    fn tree(&self) -> Option<&ImmutableKdTree<f64, 2>> {
-        (self.tree)
-            .get_or_init(|| (!self.coords.is_empty()).then(|| ImmutableKdTree::new_from_slice(&self.coords)))
-            .as_ref()
-    }
-
     /// The distance from a map point to the nearest obstacle point,
     /// metres (`None` without points).
     pub fn nearest_distance_m(&self, p: Point2) -> Option<f64> {
-        let tree = self.tree()?;
+        let tree = self.tree.as_ref()?;
         Some(tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance.sqrt())
     }
 
     /// The exact value at a map point, from its nearest obstacle point.
     pub fn exact(&self, p: Point2) -> f64 {
-        let Some(tree) = self.tree() else {
+        let Some(tree) = &self.tree else {
             return self.base_at(p).ln();
         };
         let d2 = tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y]).distance;
@@ -453,7 +308,7 @@ impl LikelihoodField {
         let mut candidates = Vec::new();
         offsets.push(0u32);
         for p in starts {
-            if let Some(tree) = self.tree() {
+            if let Some(tree) = &self.tree {
                 let q = [p.x, p.y];
                 let d0 = tree.nearest_one::<SquaredEuclidean>(&q).distance.sqrt();
                 // A hair wider against rounding: a point too many costs
@@ -481,7 +336,7 @@ impl LikelihoodField {
             (p.y / self.resolution_m).floor() as i64 - self.min_cell.1,
         );
         let inside = i >= 0 && j >= 0 && (i as usize) < self.width && (j as usize) < self.height;
-        if inside && (self.free.get(j as usize * self.width + i as usize)).is_some_and(|&f| f) {
+        if inside && self.free[j as usize * self.width + i as usize] {
             self.epsilon_free
         } else {
             self.epsilon

@@ -11,18 +11,18 @@
 //! building for hours needs little more than one that goes round once.
 
 use crate::frame::laser_frame;
+use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
+use anyhow::{bail, Context, Result};
+use nalgebra::{Matrix3, Vector3};
+use nodes::Nodes;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig, PoseGraph};
 use pirouette_grid::{GridConfig, OccupancyGrid};
 use pirouette_io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
-use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
 use pirouette_profile::Rop;
 use pirouette_register::{
     endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, Registration,
 };
-use anyhow::{bail, Context, Result};
-use nalgebra::{Matrix3, Vector3};
-use nodes::Nodes;
 use revisits::{Keyframes, Track};
 use std::collections::VecDeque;
 use std::path::Path;
