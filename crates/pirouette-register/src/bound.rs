@@ -70,29 +70,37 @@ impl Level {
         s
     }
 
-    /// The next level up over the same block: the larger of two blocks
-    /// `half` cells apart, along rows, then along columns. The last `half`
-    /// columns and rows take the floor for what lies beyond the block, so
-    /// a level is exact `2ʰ − 1` cells short of the block's far edges.
+    /// The next level up over the same block: at each cell the largest of
+    /// this level at the cell and `half` cells on along each axis (max is
+    /// exact in any order). Cells on past the block take the floor, so a
+    /// level is exact `2ʰ − 1` cells short of the block's far edges.
     fn pooled(&self, half: usize) -> Level {
         let (w, h) = (self.width, self.height);
-        let mut values = self.values.clone();
-        for row in values.chunks_exact_mut(w.max(1)) {
-            for x in 0..w {
-                let far = if x + half < w { row[x + half] } else { self.floor };
-                row[x] = row[x].max(far);
-            }
-        }
+        let floor = self.floor;
+        let mut values = Vec::with_capacity(w * h);
         for y in 0..h {
-            let (near, far) = values.split_at_mut(((y + half).min(h)) * w);
-            let row = &mut near[y * w..][..w];
-            if y + half < h {
-                row.iter_mut().zip(&far[..w]).for_each(|(v, &f)| *v = v.max(f));
-            } else {
-                row.iter_mut().for_each(|v| *v = v.max(self.floor));
+            let row = &self.values[y * w..][..w];
+            let up = (y + half < h).then(|| &self.values[(y + half) * w..][..w]);
+            let inside = w.saturating_sub(half);
+            match up {
+                Some(up) => {
+                    values
+                        .extend((0..inside).map(|x| row[x].max(row[x + half]).max(up[x].max(up[x + half]))));
+                    values.extend((inside..w).map(|x| row[x].max(floor).max(up[x].max(floor))));
+                }
+                None => {
+                    values.extend((0..inside).map(|x| row[x].max(row[x + half]).max(floor)));
+                    values.extend((inside..w).map(|x| row[x].max(floor).max(floor)));
+                }
             }
         }
-        Level { values, ..*self }
+        Level {
+            values,
+            origin: self.origin,
+            width: w,
+            height: h,
+            floor,
+        }
     }
 }
 
@@ -103,16 +111,29 @@ impl Pyramid {
     pub(crate) fn new(field: &LikelihoodField, lo: (i64, i64), hi: (i64, i64), top: usize) -> Self {
         let pad = 1i64 << top;
         let (width, height) = ((hi.0 - lo.0 + pad) as usize, (hi.1 - lo.1 + pad) as usize);
+        let floor = field.floor();
+        // The field's rows copied where they overlap the block, the floor
+        // elsewhere (what `LikelihoodField::cell` answers there).
+        let (min, fw, fh, field_values) = field.raw();
+        let (x0, x1) = (lo.0.max(min.0), (lo.0 + width as i64).min(min.0 + fw as i64));
         let mut values = Vec::with_capacity(width * height);
         for j in lo.1..lo.1 + height as i64 {
-            values.extend((lo.0..lo.0 + width as i64).map(|i| field.cell(i, j)));
+            let fy = j - min.1;
+            if x0 >= x1 || fy < 0 || fy >= fh as i64 {
+                values.extend(std::iter::repeat_n(floor, width));
+                continue;
+            }
+            let row = &field_values[fy as usize * fw..][..fw];
+            values.extend(std::iter::repeat_n(floor, (x0 - lo.0) as usize));
+            values.extend_from_slice(&row[(x0 - min.0) as usize..(x1 - min.0) as usize]);
+            values.extend(std::iter::repeat_n(floor, (lo.0 + width as i64 - x1) as usize));
         }
         let mut levels = vec![Level {
             origin: lo,
             width,
             height,
             values,
-            floor: field.floor(),
+            floor,
         }];
         for h in 1..=top {
             let next = levels[h - 1].pooled(1 << (h - 1));
