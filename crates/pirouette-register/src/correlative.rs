@@ -4,6 +4,7 @@
 
 use crate::bound::{search_rotation, Block, GaussianTerm, Kept, Pyramid, SharedBest, TOP_LEVEL};
 use crate::field::{LikelihoodField, Neighbourhood};
+use crate::floor_i64;
 use crate::RegisterError;
 use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::{wrap_angle, Point2, Pose2};
@@ -242,7 +243,7 @@ pub fn thin_points(points: &[Point2], cell_m: f64) -> Vec<Point2> {
         .iter()
         .copied()
         .filter(|p| p.x.is_finite() && p.y.is_finite())
-        .filter(|p| seen.insert(((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64)))
+        .filter(|p| seen.insert((floor_i64(p.x / cell_m), floor_i64(p.y / cell_m))))
         .collect()
 }
 
@@ -368,7 +369,7 @@ impl<'p> Lattice<'p> {
             .map(|p| {
                 let x = mean.x + c * p.x - s * p.y;
                 let y = mean.y + s * p.x + c * p.y;
-                ((x / res).floor() as i64, (y / res).floor() as i64)
+                (floor_i64(x / res), floor_i64(y / res))
             })
             .collect()
     }

@@ -1,5 +1,6 @@
 //! The likelihood field of a map: how well a point explains an obstacle.
 
+use crate::floor_i64;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
@@ -105,7 +106,7 @@ impl LikelihoodField {
         epsilon_free: f64,
     ) -> Self {
         let s = grid.resolution_m();
-        let cell = |p: Point2| ((p.x / s).floor() as i64, (p.y / s).floor() as i64);
+        let cell = |p: Point2| (floor_i64(p.x / s), floor_i64(p.y / s));
         Self::build(
             points,
             Some((grid, free_threshold)),
@@ -129,12 +130,7 @@ impl LikelihoodField {
         let floor = epsilon.ln() as f32;
         // Beyond 3σ the Gaussian adds less than 1.2 % to the floor.
         let reach = (3.0 * sigma_m / resolution_m).ceil() as i64 + 1;
-        let cell = |p: &Point2| {
-            (
-                (p.x / resolution_m).floor() as i64,
-                (p.y / resolution_m).floor() as i64,
-            )
-        };
+        let cell = |p: &Point2| (floor_i64(p.x / resolution_m), floor_i64(p.y / resolution_m));
         // Points that can reach the region.
         let near_region = |p: &Point2| {
             region.is_none_or(|(lo, hi)| {
@@ -332,8 +328,8 @@ impl LikelihoodField {
     /// The floor's base at a map point: `ε_free` on seen floor, else `ε`.
     fn base_at(&self, p: Point2) -> f64 {
         let (i, j) = (
-            (p.x / self.resolution_m).floor() as i64 - self.min_cell.0,
-            (p.y / self.resolution_m).floor() as i64 - self.min_cell.1,
+            floor_i64(p.x / self.resolution_m) - self.min_cell.0,
+            floor_i64(p.y / self.resolution_m) - self.min_cell.1,
         );
         let inside = i >= 0 && j >= 0 && (i as usize) < self.width && (j as usize) < self.height;
         if inside && self.free[j as usize * self.width + i as usize] {

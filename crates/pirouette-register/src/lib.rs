@@ -48,6 +48,19 @@ pub enum RegisterError {
     },
 }
 
+/// `⌊x⌋` as an integer, bit for bit `x.floor() as i64` (saturating, NaN
+/// to 0) without a call to the maths library: the lattice's cell of every
+/// point of every pose searched goes through it.
+#[inline]
+pub(crate) fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
 /// The obstacle points of a profile (its reliable ranges) in the profile's
 /// own frame, in bin order.
 pub fn endpoints(rop: &Rop) -> Vec<Point2> {
@@ -80,6 +93,43 @@ pub fn far_points(rop: &Rop, reach_m: f64) -> Vec<Point2> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_i64_is_floor() {
+        let mut checked = 0;
+        for x in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999_999_999,
+            -2.000_000_001,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            9.3e18,
+            -9.3e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            4503599627370497.0,
+            -4503599627370497.0,
+        ] {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+            checked += 1;
+        }
+        for k in -2000..2000 {
+            let x = k as f64 * 0.0137 / 0.05;
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+            checked += 1;
+        }
+        assert_eq!(checked, 4021);
+    }
 
     #[test]
     fn near_and_far_points_split_a_profile_at_its_soft_limit() {
