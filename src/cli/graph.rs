@@ -165,6 +165,7 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
                 "outliers": if reject { "reject" } else { "keep" },
                 "loop_closures": loops.len(),
                 "rejected": rejected,
+                "inconsistent": solved.rejection.inconsistent.len(),
                 "gnc_rounds": solved.rejection.rounds,
             })
         )?;
@@ -192,8 +193,9 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
         )?;
         if rejected > 0 {
             outln!(
-                "{rejected} of {} loop closures left out as wrong (graduated non-convexity, {} rounds); χ² over the edges kept {:.6e}",
+                "{rejected} of {} loop closures left out as wrong ({} inconsistent with the largest consistent set, the rest by graduated non-convexity in {} rounds); χ² over the edges kept {:.6e}",
                 loops.len(),
+                solved.rejection.inconsistent.len(),
                 solved.rejection.rounds,
                 summary.chi2_final
             )?;

@@ -42,13 +42,16 @@
 // 3 × 3 blocks read most plainly with their row and column indices.
 #![allow(clippy::needless_range_loop)]
 
+pub mod consistency;
 pub mod init;
 pub mod outliers;
 mod solve;
 mod sparse;
 pub mod synthetic;
 
-pub use solve::{marginal_covariances, optimise, GaussNewton, OptimiseConfig, Solver, Summary};
+pub use solve::{
+    innovation_chi2, marginal_covariances, optimise, GaussNewton, OptimiseConfig, Solver, Summary,
+};
 
 use pirouette_geom::{wrap_angle, Pose2};
 
