@@ -11,7 +11,7 @@
 //! building for hours needs little more than one that goes round once.
 
 use crate::frame::laser_frame;
-use crate::mapping::graph::{Edge as MeasuredEdge, EDGE_GATE};
+use crate::mapping::graph::{information, Edge as MeasuredEdge, EDGE_GATE};
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
 use nodes::Nodes;
@@ -780,14 +780,11 @@ impl<'c> Mapper<'c> {
     /// its world covariance) in the frame of `i`'s current pose, between
     /// scans `i` and `j`.
     fn loop_edge(&self, i: usize, j: usize, pose_j: &Pose2, covariance: &Matrix3<f64>) -> GraphEdge {
-        let local = self.local_covariance(i, covariance);
-        let info = (local.try_inverse())
-            .unwrap_or_else(|| edge_floor().map(|v| if v > 0.0 { 1.0 / v } else { 0.0 }));
         let mut e = MeasuredEdge {
             i,
             j,
             z: self.poses[i].between(pose_j),
-            info: 0.5 * (info + info.transpose()),
+            info: information(&self.local_covariance(i, covariance)),
         }
         .to_graph();
         e.kernel = Kernel::Cauchy { c: 1.0 };

@@ -4,7 +4,7 @@
 //! long log's graph, and the memory its solves take, then grow with its
 //! nodes, not its scans.
 
-use crate::mapping::graph::Edge as MeasuredEdge;
+use crate::mapping::graph::{information, Edge as MeasuredEdge};
 use nalgebra::Matrix3;
 use pirouette_geom::Pose2;
 use pirouette_graph::{Edge as GraphEdge, PoseGraph};
@@ -65,16 +65,11 @@ impl Nodes {
         let sigma = j_z * sigma * j_z.transpose() + j_step * covariance * j_step.transpose();
         let last = self.scans.len() - 1;
         if node {
-            let info = sigma.try_inverse().unwrap_or_else(|| {
-                // Floors make it invertible; a covariance that is not gets
-                // the floors' information alone.
-                Matrix3::from_diagonal(&sigma.diagonal().map(|v| if v > 0.0 { 1.0 / v } else { 0.0 }))
-            });
             let edge = MeasuredEdge {
                 i: last,
                 j: last + 1,
                 z: composed,
-                info: 0.5 * (info + info.transpose()),
+                info: information(&sigma),
             };
             self.graph.poses.push(pose);
             self.graph.edges.push(edge.to_graph());

@@ -8,7 +8,6 @@ use super::{far_reach_m, forward_distance, graph, last_frame, refine_pass, revis
 use crate::frame::DatasetSweep;
 use crate::frame::Frame;
 use anyhow::Result;
-use nalgebra::Matrix3;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_register::{register, LikelihoodField, PosePrior};
 use rayon::prelude::*;
@@ -129,7 +128,7 @@ fn sweep_edges(
                 i,
                 j,
                 z: reg.pose,
-                info: reg.covariance.try_inverse().unwrap_or_else(Matrix3::zeros),
+                info: graph::information(&reg.covariance),
             }))
         })
         .collect::<Result<Vec<_>>>()?;
@@ -178,7 +177,7 @@ fn motion_edges(
                 i: s - 1,
                 j: s,
                 z: prior.mean * placed[s].rel(0).inverse(),
-                info: prior.covariance().try_inverse().unwrap_or_else(Matrix3::zeros),
+                info: graph::information(&prior.covariance()),
             }
         })
         .collect()

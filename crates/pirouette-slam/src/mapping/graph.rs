@@ -19,6 +19,18 @@ pub(crate) struct Edge {
     pub info: Matrix3<f64>,
 }
 
+/// The information of a measurement with covariance `covariance`: its
+/// inverse, made symmetric to the bit; where the covariance does not
+/// invert, the inverse of its variances alone (none where a variance is
+/// not positive), so that a degenerate measurement still weighs what its
+/// spreads say and never more.
+pub(crate) fn information(covariance: &Matrix3<f64>) -> Matrix3<f64> {
+    let info = covariance.try_inverse().unwrap_or_else(|| {
+        Matrix3::from_diagonal(&covariance.diagonal().map(|v| if v > 0.0 { 1.0 / v } else { 0.0 }))
+    });
+    0.5 * (info + info.transpose())
+}
+
 impl Edge {
     /// The edge for [`pirouette_graph`], whose residual is taken in `z`'s
     /// frame (`z⁻¹ · xᵢ⁻¹ · xⱼ`): the information turned into that frame,
@@ -89,6 +101,20 @@ const GRAPH_ITERATIONS: usize = 10;
 mod tests {
     use super::*;
     use nalgebra::Vector3;
+
+    #[test]
+    fn information_inverts_or_falls_back_to_the_variances() {
+        let c = Matrix3::new(4.0, 1.0, 0.0, 1.0, 2.0, 0.0, 0.0, 0.0, 0.5);
+        let i = information(&c);
+        assert!((i * c - Matrix3::identity()).norm() < 1e-12);
+        assert_eq!(i, i.transpose());
+        // Rank one: the variances' inverses alone, and none for a zero one.
+        let singular = Matrix3::new(1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0);
+        assert_eq!(
+            information(&singular),
+            Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0))
+        );
+    }
 
     #[test]
     fn the_adjustment_turns_a_group_of_sweeps_back_and_drops_a_wrong_match() {
