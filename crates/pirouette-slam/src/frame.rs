@@ -112,6 +112,15 @@ impl Frame {
             _ => None,
         }
     }
+
+    /// The measured motion (raw odometry) since the previous frame, in its
+    /// frame, where the sensor's log holds one.
+    pub fn odometry(&self) -> Option<Pose2> {
+        match self.motion {
+            Some(Step::Odometry(p)) => Some(p),
+            _ => None,
+        }
+    }
 }
 
 /// A laser scan as a frame: one profile (a bin per beam, centred on it;

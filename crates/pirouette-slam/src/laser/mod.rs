@@ -10,7 +10,7 @@
 //! revisits), never the log's lines: a log that goes round the same
 //! building for hours needs little more than one that goes round once.
 
-use crate::frame::laser_frame;
+use crate::frame::{laser_frame, Frame};
 use crate::mapping::graph::{information, Edge as MeasuredEdge, EDGE_GATE};
 use anyhow::{bail, Context, Result};
 use nalgebra::{Matrix3, Vector3};
@@ -537,18 +537,15 @@ impl<'c> Mapper<'c> {
         })
     }
 
-    /// Matches a scan against the local map (the registered scans before
-    /// it), from the newest scan's pose moved by the scan's odometry:
-    /// its thinned endpoints and the match.
-    fn matched(
-        &mut self,
-        scan: &LaserScan,
-        label: &dyn Fn() -> String,
-    ) -> Result<(Vec<Point2>, Registration)> {
+    /// Matches a scan's frame against the local map (the registered scans
+    /// before it), from the newest scan's pose moved by the frame's
+    /// odometry: its thinned endpoints and the match.
+    fn matched(&mut self, frame: &Frame, label: &dyn Fn() -> String) -> Result<(Vec<Point2>, Registration)> {
         let config = self.config;
-        let points = self.scan_points(scan);
+        let points = self.scan_points(frame);
         let last = self.poses.len() - 1;
-        let prior = step_prior(&(self.poses[last] * self.newest), scan.odometry.as_ref(), config);
+        let odometry = frame.odometry();
+        let prior = step_prior(&(self.poses[last] * self.newest), odometry.as_ref(), config);
         let field = match self.field.take() {
             Some(field) => field,
             None => self.field((last + 1).saturating_sub(config.local_scans)..last + 1),
@@ -563,8 +560,7 @@ impl<'c> Mapper<'c> {
         // window only slides along: the odometry's pose stands there).
         if let Ok(r) = &reg {
             let cell = config.field_resolution_m;
-            let odometry = scan.odometry.is_some();
-            if odometry && r.accepted && at_window_edge(&prior, &r.pose, &config.register, cell) {
+            if odometry.is_some() && r.accepted && at_window_edge(&prior, &r.pose, &config.register, cell) {
                 let wide = PosePrior {
                     sigma_forward_m: 3.0 * prior.sigma_forward_m,
                     sigma_left_m: 3.0 * prior.sigma_left_m,
@@ -620,9 +616,8 @@ impl<'c> Mapper<'c> {
 
     /// A scan's thinned endpoints (those it sees and those beyond the
     /// map's limit within reach), in its frame.
-    fn scan_points(&self, scan: &LaserScan) -> Vec<Point2> {
+    fn scan_points(&self, frame: &Frame) -> Vec<Point2> {
         let config = self.config;
-        let frame = laser_frame(scan, config.max_range_m);
         let mut points = endpoints(&frame.compared);
         points.extend(far_points(&frame.compared, config.reach_m));
         thin_points(&points, config.register.spacing_m.max(config.field_resolution_m))
@@ -910,11 +905,12 @@ pub fn register_log(
             0 => format!("{}: scan {}", path.display(), scan.scan),
             line => format!("{}: scan {} (line {line})", path.display(), scan.scan),
         };
-        since = since.zip(scan.odometry).map(|(a, o)| a * o);
+        let frame = laser_frame(&scan, config.max_range_m);
+        since = since.zip(frame.odometry()).map(|(a, o)| a * o);
         let (points, reg) = if k == 0 {
-            (m.scan_points(&scan), None)
+            (m.scan_points(&frame), None)
         } else {
-            let (points, reg) = m.matched(&scan, &label)?;
+            let (points, reg) = m.matched(&frame, &label)?;
             // Matched near the last registered scan: the local map holds
             // what it sees.
             let relative = m.poses[k - 1].between(&reg.pose);
