@@ -376,25 +376,11 @@ mod tests {
     fn wrong_loop_closures_are_left_out_of_the_largest_consistent_set() {
         for seed in [1, 2] {
             let (mut graph, _) = grid_world(400, 0.02, 0.01, seed);
-            let mut rng = ChaCha8Rng::seed_from_u64(seed + 50);
-            let n = graph.poses.len();
-            let info = graph.edges[0].information;
             let loops: Vec<usize> = (graph.edges.iter().enumerate())
                 .filter(|(_, e)| e.to != e.from + 1)
                 .map(|(k, _)| k)
                 .collect();
-            let mut wrong = Vec::new();
-            for _ in 0..loops.len() / 10 + 1 {
-                let i = rng.random_range(0..n - 2);
-                let j = rng.random_range(i + 2..n);
-                let z = Pose2::new(
-                    rng.random_range(-5.0..5.0),
-                    rng.random_range(-5.0..5.0),
-                    rng.random_range(-3.0..3.0),
-                );
-                wrong.push(graph.edges.len());
-                graph.edges.push(Edge::new(i, j, z, info));
-            }
+            let wrong = crate::synthetic::add_wrong_loops(&mut graph, loops.len() / 10 + 1, seed + 50);
             let candidates: Vec<usize> = loops.iter().chain(&wrong).copied().collect();
             let c = consistent_loops(&graph, &candidates, CHI2_3_99).unwrap().unwrap();
             assert!(wrong.iter().all(|w| c.dropped.contains(w)), "seed {seed}: {c:?}");

@@ -478,10 +478,6 @@ pub fn solve_from_starts(
 mod tests {
     use super::*;
     use crate::synthetic::grid_world;
-    use crate::Edge;
-    use pirouette_geom::Pose2;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
 
     /// A grid world's graph with `share` more loop edges, each measuring a
     /// relative pose drawn at random (metres apart, any heading): the
@@ -489,22 +485,9 @@ mod tests {
     fn with_outliers(share: f64, seed: u64) -> (PoseGraph, Vec<usize>) {
         let (mut graph, _) = grid_world(300, 0.02, 0.01, seed);
         crate::init::chain(&mut graph).unwrap();
-        let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
         let loops = graph.edges.iter().filter(|e| e.to != e.from + 1).count();
-        let n = graph.poses.len();
-        let info = graph.edges[0].information;
-        let mut wrong = Vec::new();
-        for _ in 0..((loops as f64 * share).ceil() as usize).max(1) {
-            let i = rng.random_range(0..n - 2);
-            let j = rng.random_range(i + 2..n);
-            let z = Pose2::new(
-                rng.random_range(-5.0..5.0),
-                rng.random_range(-5.0..5.0),
-                rng.random_range(-3.0..3.0),
-            );
-            wrong.push(graph.edges.len());
-            graph.edges.push(Edge::new(i, j, z, info));
-        }
+        let count = ((loops as f64 * share).ceil() as usize).max(1);
+        let wrong = crate::synthetic::add_wrong_loops(&mut graph, count, seed + 100);
         (graph, wrong)
     }
 

@@ -67,6 +67,30 @@ pub fn grid_world(n: usize, sigma_m: f64, sigma_rad: f64, seed: u64) -> (PoseGra
     (graph, truth)
 }
 
+/// Adds `count` loop edges to `graph`, each measuring a relative pose drawn
+/// at random (metres apart, any heading) between poses at least two apart,
+/// with the information of its first edge: the wrong edges' indices.
+#[cfg(test)]
+pub(crate) fn add_wrong_loops(graph: &mut PoseGraph, count: usize, seed: u64) -> Vec<usize> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let n = graph.poses.len();
+    let info = graph.edges[0].information;
+    let mut wrong = Vec::new();
+    for _ in 0..count {
+        let i = rng.random_range(0..n - 2);
+        let j = rng.random_range(i + 2..n);
+        let z = Pose2::new(
+            rng.random_range(-5.0..5.0),
+            rng.random_range(-5.0..5.0),
+            rng.random_range(-3.0..3.0),
+        );
+        wrong.push(graph.edges.len());
+        graph.edges.push(Edge::new(i, j, z, info));
+    }
+    wrong
+}
+
 /// SplitMix64: a small, seeded, portable generator.
 struct SplitMix(u64);
 
