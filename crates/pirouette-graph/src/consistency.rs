@@ -24,10 +24,6 @@ use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::Pose2;
 use rayon::prelude::*;
 
-/// χ² with 3 degrees of freedom at 99 %: a cycle beyond it is not the
-/// noise of its measurements.
-pub const CHI2_3_99: f64 = 11.34;
-
 /// What [`consistent_loops`] found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Consistency {
@@ -284,6 +280,7 @@ fn largest_clique(adjacent: &[Vec<u64>], n: usize) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::outliers::CHI2_3_999;
     use crate::synthetic::grid_world;
     use crate::Edge;
     use rand::{Rng, SeedableRng};
@@ -370,8 +367,8 @@ mod tests {
 
     /// A grid world's true loops are consistent with each other and random
     /// wrong ones are not: every wrong one is dropped, and all but a few
-    /// true ones kept (a pair of true loops fails the 99 % test one time
-    /// in a hundred, and the set kept must pass every pair).
+    /// true ones kept (a pair of true loops may fail the first-order
+    /// test, and the set kept must pass every pair).
     #[test]
     fn wrong_loop_closures_are_left_out_of_the_largest_consistent_set() {
         for seed in [1, 2] {
@@ -382,7 +379,9 @@ mod tests {
                 .collect();
             let wrong = crate::synthetic::add_wrong_loops(&mut graph, loops.len() / 10 + 1, seed + 50);
             let candidates: Vec<usize> = loops.iter().chain(&wrong).copied().collect();
-            let c = consistent_loops(&graph, &candidates, CHI2_3_99).unwrap().unwrap();
+            let c = consistent_loops(&graph, &candidates, CHI2_3_999)
+                .unwrap()
+                .unwrap();
             assert!(wrong.iter().all(|w| c.dropped.contains(w)), "seed {seed}: {c:?}");
             let true_dropped = c.dropped.len() - wrong.len();
             assert!(
@@ -400,14 +399,14 @@ mod tests {
             .filter(|(_, e)| e.to != e.from + 1)
             .map(|(k, _)| k)
             .collect();
-        assert!(consistent_loops(&graph, &candidates, CHI2_3_99)
+        assert!(consistent_loops(&graph, &candidates, CHI2_3_999)
             .unwrap()
             .is_some());
         graph.edges.retain(|e| !(e.from == 20 && e.to == 21));
-        assert_eq!(consistent_loops(&graph, &[], CHI2_3_99).unwrap(), None);
+        assert_eq!(consistent_loops(&graph, &[], CHI2_3_999).unwrap(), None);
         let k = graph.edges.len();
         assert!(matches!(
-            consistent_loops(&graph, &[k], CHI2_3_99),
+            consistent_loops(&graph, &[k], CHI2_3_999),
             Err(GraphError::BadEdge { edge, .. }) if edge == k
         ));
     }

@@ -44,7 +44,7 @@ pub struct OutlierConfig {
 impl Default for OutlierConfig {
     /// `c̄²` χ²₃ at 99.9 % (16.27); `μ` × 1.4 a round (the paper's), at
     /// most 100 rounds of at most 20 solver steps each; loop closures
-    /// checked pairwise at χ²₃ 99 % (11.34) first.
+    /// checked pairwise at the same χ² first.
     fn default() -> Self {
         Self {
             threshold_chi2: CHI2_3_999,
