@@ -259,10 +259,13 @@ fn largest_clique(adjacent: &[Vec<u64>], n: usize) -> Vec<usize> {
         let mut clique = vec![v];
         let mut open = adjacent[v].clone();
         loop {
+            // A clique that cannot outgrow the best so far is given up.
+            let left: usize = open.iter().map(|w| w.count_ones() as usize).sum();
+            if clique.len() + left <= best.len() {
+                break;
+            }
             // The open vertex of highest degree (the first of equals).
-            let next = (0..n)
-                .filter(|&u| open[u / 64] >> (u % 64) & 1 == 1)
-                .max_by_key(|&u| (degree[u], std::cmp::Reverse(u)));
+            let next = set_bits(&open).max_by_key(|&u| (degree[u], std::cmp::Reverse(u)));
             let Some(u) = next else { break };
             clique.push(u);
             for (o, a) in open.iter_mut().zip(&adjacent[u]) {
@@ -275,6 +278,20 @@ fn largest_clique(adjacent: &[Vec<u64>], n: usize) -> Vec<usize> {
     }
     best.sort_unstable();
     best
+}
+
+/// The vertices whose bits are set, in order.
+fn set_bits(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
+    bits.iter().enumerate().flat_map(|(w, &word)| {
+        let mut rest = word;
+        std::iter::from_fn(move || {
+            (rest != 0).then(|| {
+                let b = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                64 * w + b
+            })
+        })
+    })
 }
 
 #[cfg(test)]
