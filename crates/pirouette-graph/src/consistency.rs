@@ -53,15 +53,7 @@ pub fn consistent_loops(
     candidates: &[usize],
     threshold_chi2: f64,
 ) -> Result<Option<Consistency>, GraphError> {
-    if let Some(&bad) = candidates.iter().find(|&&k| k >= graph.edges.len()) {
-        return Err(GraphError::BadEdge {
-            edge: bad,
-            problem: format!(
-                "a loop closure candidate, but the graph has {} edges",
-                graph.edges.len()
-            ),
-        });
-    }
+    graph.check_edge_indices(candidates, "a loop closure candidate")?;
     let Some(chain) = Chain::of(graph)? else {
         return Ok(None);
     };
@@ -141,7 +133,7 @@ impl Chain {
                 return Ok(None);
             };
             let e = &graph.edges[k];
-            let sigma = covariance_of(graph, k)?;
+            let sigma = graph.edge_covariance(k)?;
             let next = poses[m] * e.measurement;
             // The step's error, taken at its end, in the world frame.
             let ad = adjoint(&next);
@@ -216,21 +208,10 @@ impl Loop {
             from: e.from,
             to: e.to,
             measurement: e.measurement,
-            sigma: covariance_of(graph, k)?,
+            sigma: graph.edge_covariance(k)?,
             correction: x[e.from] * e.measurement * x[e.to].inverse(),
         })
     }
-}
-
-/// The covariance of edge `k`'s measurement: its information inverted.
-fn covariance_of(graph: &PoseGraph, k: usize) -> Result<Matrix3<f64>, GraphError> {
-    let o = graph.edges[k].information;
-    Matrix3::from_fn(|r, c| o[r][c])
-        .try_inverse()
-        .ok_or_else(|| GraphError::BadEdge {
-            edge: k,
-            problem: "its information does not invert".into(),
-        })
 }
 
 /// The adjoint of an SE(2) pose: `T · Exp(ξ) · T⁻¹ = Exp(Ad(T) ξ)` for a

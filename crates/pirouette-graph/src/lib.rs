@@ -354,6 +354,29 @@ impl PoseGraph {
             .sum()
     }
 
+    /// Checks that every index in `edges` names an edge of the graph (the
+    /// error says they were `asked_as`).
+    pub(crate) fn check_edge_indices(&self, edges: &[usize], asked_as: &str) -> Result<(), GraphError> {
+        match edges.iter().find(|&&k| k >= self.edges.len()) {
+            Some(&bad) => Err(GraphError::BadEdge {
+                edge: bad,
+                problem: format!("{asked_as}, but the graph has {} edges", self.edges.len()),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The covariance of edge `k`'s measurement: its information inverted.
+    pub(crate) fn edge_covariance(&self, k: usize) -> Result<nalgebra::Matrix3<f64>, GraphError> {
+        let o = self.edges[k].information;
+        nalgebra::Matrix3::from_fn(|r, c| o[r][c])
+            .try_inverse()
+            .ok_or_else(|| GraphError::BadEdge {
+                edge: k,
+                problem: "its information does not invert".into(),
+            })
+    }
+
     /// Checks that edges name existing poses, measurements are finite and
     /// information matrices symmetric positive definite, and that the held
     /// pose exists.

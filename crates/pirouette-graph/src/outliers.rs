@@ -88,15 +88,7 @@ pub fn reject_outliers(
     config: &OutlierConfig,
 ) -> Result<Rejection, GraphError> {
     graph.check()?;
-    if let Some(&bad) = candidates.iter().find(|&&k| k >= graph.edges.len()) {
-        return Err(GraphError::BadEdge {
-            edge: bad,
-            problem: format!(
-                "an outlier candidate, but the graph has {} edges",
-                graph.edges.len()
-            ),
-        });
-    }
+    graph.check_edge_indices(candidates, "an outlier candidate")?;
     let summary = optimise(graph, &config.solve)?;
     let chi2 = |g: &PoseGraph, k: usize| {
         let e = &g.edges[k];

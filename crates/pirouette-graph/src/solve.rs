@@ -348,12 +348,7 @@ pub fn marginal_covariances(graph: &PoseGraph, which: &[usize]) -> Result<Vec<[[
 /// As [`marginal_covariances`]; an edge beyond the graph's.
 pub fn innovation_chi2(graph: &PoseGraph, which: &[usize]) -> Result<Vec<f64>, GraphError> {
     graph.check()?;
-    if let Some(&k) = which.iter().find(|&&k| k >= graph.edges.len()) {
-        return Err(GraphError::BadEdge {
-            edge: k,
-            problem: format!("asked about, but the graph has {} edges", graph.edges.len()),
-        });
-    }
+    graph.check_edge_indices(which, "asked about")?;
     // The rest: the edges asked about kept with a trace of their weight
     // (the system stays positive definite, and they move nothing).
     let mut rest = graph.clone();
@@ -389,12 +384,7 @@ pub fn innovation_chi2(graph: &PoseGraph, which: &[usize]) -> Result<Vec<f64>, G
                 (Some(u), Some(_)) => cols[(3 * u + r % 3, 6 * b + q)],
                 _ => 0.0,
             });
-            let omega = nalgebra::Matrix3::from_fn(|r, q| edge.information[r][q]);
-            let sigma = omega.try_inverse().ok_or_else(|| GraphError::BadEdge {
-                edge: k,
-                problem: "its information does not invert".into(),
-            })?;
-            let s = sigma + j * c * j.transpose();
+            let s = graph.edge_covariance(k)? + j * c * j.transpose();
             let e = nalgebra::Vector3::from(e);
             out.push(
                 s.try_inverse()
