@@ -75,6 +75,17 @@ impl PosePrior {
         }
     }
 
+    /// The box [`register`] searches about the prior's mean.
+    pub fn window(&self, config: &RegisterConfig) -> Window {
+        let window = |sigma: f64| (config.window_sigmas * sigma).min(config.max_window_m);
+        let cov = self.covariance();
+        Window {
+            half_x: window(cov[(0, 0)].sqrt()),
+            half_y: window(cov[(1, 1)].sqrt()),
+            half_t: (config.window_sigmas * self.sigma_theta_rad).min(std::f64::consts::PI),
+        }
+    }
+
     /// The prior's covariance in world `(x, y, θ)`.
     pub fn covariance(&self) -> Matrix3<f64> {
         let r = self.mean.tangent_rotation();
@@ -84,6 +95,13 @@ impl PosePrior {
             self.sigma_theta_rad.powi(2),
         ));
         r * d * r.transpose()
+    }
+
+    /// The log probability density of `pose` (normalised: priors of
+    /// other spreads compare).
+    pub fn ln_density(&self, pose: &Pose2) -> f64 {
+        let volume = self.sigma_forward_m * self.sigma_left_m * self.sigma_theta_rad;
+        self.log_density(pose.x, pose.y, pose.theta) - (std::f64::consts::TAU.powf(1.5) * volume).ln()
     }
 
     /// `−½ Δᵀ Σ⁻¹ Δ` of a candidate pose.
@@ -116,6 +134,19 @@ impl PosePrior {
         }
         Ok(())
     }
+}
+
+/// The box a registration searches about its prior's mean, in world axes:
+/// ± `window_sigmas` of the prior's spread, at most ± `max_window_m` in
+/// position and half a turn in heading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// Half-width along world x, metres.
+    pub half_x: f64,
+    /// Half-width along world y, metres.
+    pub half_y: f64,
+    /// Half-width in heading, radians.
+    pub half_t: f64,
 }
 
 /// Settings of registration.
@@ -154,6 +185,12 @@ pub struct RegisterConfig {
     pub rival_apart_m: f64,
     /// The same in heading, radians.
     pub rival_apart_rad: f64,
+    /// The most lattice poses the posterior may spread over (weights of
+    /// at least `10⁻⁹` of the best's) for the match to be trusted: one
+    /// that loose does not pin the pose (a featureless view, or a wide
+    /// search through look-alike places), and holding its poses would
+    /// take 32 MB per million.
+    pub max_spread_poses: usize,
 }
 
 /// How [`register`] searches its lattice. Both find the same best pose and
@@ -177,7 +214,8 @@ impl Default for RegisterConfig {
     /// a ±3σ window of at most ±1 m; endpoints counted once per 3 cm (2σ:
     /// closer ones share their error); at least 10 of them (30 cm of edge)
     /// on mapped obstacles; the branch-and-bound search; any peak beyond the
-    /// best one's lattice neighbours a rival.
+    /// best one's lattice neighbours a rival; a posterior over more than 2²⁰
+    /// poses not trusted.
     fn default() -> Self {
         Self {
             sigma_m: 0.015,
@@ -192,6 +230,7 @@ impl Default for RegisterConfig {
             search: Search::BranchAndBound,
             rival_apart_m: 0.0,
             rival_apart_rad: 0.0,
+            max_spread_poses: 1 << 20,
         }
     }
 }
@@ -286,9 +325,13 @@ pub fn register(
     // posterior weight counts.
     let (lattice, nt) = Lattice::around(prior, &points, res, config);
     let cells_at = |kt: i64| lattice.cells_at(&points, kt);
-    let (kept, evaluated) = match config.search {
-        Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at),
-        Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at),
+    let found = match config.search {
+        Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at, config.max_spread_poses),
+        Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at, config.max_spread_poses),
+    };
+    let (kept, evaluated) = match found {
+        Found::Poses(kept, evaluated) => (kept, evaluated),
+        Found::SpreadOut(evaluated) => return Ok(fallback(field.floor() as f64, 0, evaluated)),
     };
     // Its best pose, spread and rival peak.
     let (best, covariance, rival) = lattice.posterior(kept, config);
@@ -343,11 +386,11 @@ impl<'p> Lattice<'p> {
     fn around(prior: &'p PosePrior, points: &[Point2], res: f64, config: &RegisterConfig) -> (Self, i64) {
         let far = points.iter().map(|p| p.norm()).fold(res, f64::max);
         let theta_step = (res / far).min(1f64.to_radians());
-        let window = |sigma: f64| (config.window_sigmas * sigma).min(config.max_window_m);
-        let cov = prior.covariance();
-        let half_x = window(cov[(0, 0)].sqrt());
-        let half_y = window(cov[(1, 1)].sqrt());
-        let half_t = (config.window_sigmas * prior.sigma_theta_rad).min(std::f64::consts::PI);
+        let Window {
+            half_x,
+            half_y,
+            half_t,
+        } = prior.window(config);
         let lattice = Self {
             prior,
             turned: prior.mean.theta.sin_cos(),
@@ -442,6 +485,16 @@ impl<'p> Lattice<'p> {
 /// A lattice pose kept for the posterior, with its rotation step.
 type KeptPose = (i64, Kept);
 
+/// What a search of the lattice found.
+enum Found {
+    /// The poses whose posterior weight counts (unsorted), and the count
+    /// of poses and blocks scored.
+    Poses(Vec<KeptPose>, usize),
+    /// More than [`RegisterConfig::max_spread_poses`] poses count: the count scored so
+    /// far.
+    SpreadOut(usize),
+}
+
 /// Every lattice pose scored, one slab of sx·sy per rotation; kept are those
 /// whose posterior weight can count ([`NEGLIGIBLE_LN`] below the best at
 /// most), unsorted, and the count of poses scored.
@@ -450,7 +503,8 @@ fn exhaustive(
     lattice: &Lattice,
     nt: i64,
     cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
-) -> (Vec<KeptPose>, usize) {
+    max_kept: usize,
+) -> Found {
     let (nx, ny) = (lattice.nx, lattice.ny);
     let slabs: Vec<(Vec<f32>, f64)> = (-nt..=nt)
         .into_par_iter()
@@ -464,6 +518,15 @@ fn exhaustive(
         .collect();
     let best = slabs.iter().fold(f64::NEG_INFINITY, |b, s| b.max(s.1));
     let evaluated = slabs.iter().map(|s| s.0.len()).sum();
+    let counts = |(slab, kt): (&(Vec<f32>, f64), i64)| {
+        lattice
+            .scores(&slab.0, kt)
+            .filter(|(score, _)| score - best >= NEGLIGIBLE_LN)
+            .count()
+    };
+    if slabs.iter().zip(-nt..=nt).map(counts).sum::<usize>() > max_kept {
+        return Found::SpreadOut(evaluated);
+    }
     // The poses are kept in a second pass over the slabs, which a rotation
     // whose best pose is negligible beside the best of all skips: storing
     // all (32 bytes each) would take hundreds of megabytes on a wide
@@ -479,7 +542,7 @@ fn exhaustive(
                 .map(move |(score, (a, b))| (kt, Kept { a, b, score }))
         })
         .collect();
-    (kept, evaluated)
+    Found::Poses(kept, evaluated)
 }
 
 /// The poses the exhaustive search keeps, found by branch and bound
@@ -490,7 +553,8 @@ fn bounded(
     lattice: &Lattice,
     nt: i64,
     cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
-) -> (Vec<KeptPose>, usize) {
+    max_kept: usize,
+) -> Found {
     let best = SharedBest::new();
     let nodes = AtomicUsize::new(0);
     let block = Block {
@@ -514,7 +578,7 @@ fn bounded(
             |(lo, hi), (l, h)| ((lo.0.min(l.0), lo.1.min(l.1)), (hi.0.max(h.0), hi.1.max(h.1))),
         );
     if lo.0 > hi.0 {
-        return (Vec::new(), 0);
+        return Found::Poses(Vec::new(), 0);
     }
     let side = (2 * block.nx.max(block.ny) + 1) as u64;
     let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
@@ -549,15 +613,31 @@ fn bounded(
             .map(|k| (kt, k))
             .collect()
     };
-    // The prior's mean first, which finds a good bound for all the rest.
+    // The prior's mean first, which finds a good bound for all the rest;
+    // then outwards, a few rotations per thread at a time. A pose kept
+    // before the best was known may lie below its margin: those are
+    // dropped after each batch, and the search gives up once more poses
+    // than a trusted match spreads over still count.
     let mut kept = search(0);
     let order: Vec<i64> = (1..=nt).flat_map(|k| [k, -k]).collect();
-    kept.extend(order.into_par_iter().flat_map_iter(search).collect::<Vec<_>>());
-    // A pose kept before the best was known may lie below its margin.
-    let top = best.get();
-    kept.retain(|(_, k)| k.score - top >= NEGLIGIBLE_LN);
-    (kept, nodes.into_inner())
+    for batch in order.chunks(BATCH_ROTATIONS) {
+        kept.extend(
+            batch
+                .par_iter()
+                .flat_map_iter(|&kt| search(kt))
+                .collect::<Vec<_>>(),
+        );
+        let top = best.get();
+        kept.retain(|(_, k)| k.score - top >= NEGLIGIBLE_LN);
+        if kept.len() > max_kept {
+            return Found::SpreadOut(nodes.into_inner());
+        }
+    }
+    Found::Poses(kept, nodes.into_inner())
 }
+
+/// Rotations searched in parallel between two checks of the poses kept.
+const BATCH_ROTATIONS: usize = 64;
 
 /// How far apart in lattice steps two poses are different answers: more
 /// than `a` translation steps along either axis, or more than `kt`

@@ -30,7 +30,7 @@ mod correlative;
 mod field;
 
 pub use correlative::{
-    register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
+    register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search, Window,
 };
 pub use field::LikelihoodField;
 

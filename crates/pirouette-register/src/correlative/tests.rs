@@ -206,6 +206,45 @@ fn a_corridor_is_uncertain_along_its_walls() {
     );
 }
 
+/// The corridor's posterior spreads along it: a limit below its spread
+/// leaves the match untrusted (both searches alike), one above it changes
+/// nothing.
+#[test]
+fn a_posterior_spread_over_too_many_poses_is_not_trusted() {
+    let mut world = Vec::new();
+    for k in 0..=1500 {
+        let x = k as f64 * 0.002;
+        world.push(Point2::new(x, 0.0));
+        world.push(Point2::new(x, 0.6));
+    }
+    let field = field_of(&world);
+    let truth = Pose2::new(1.5, 0.3, 0.0);
+    let seen = seen_from(&world, &truth, 0.9, 0.002, 2);
+    let prior = PosePrior::after_forward(&Pose2::new(1.0, 0.3, 0.0), 0.5, 0.01, &MotionNoise::default());
+    let with = |search, max_spread_poses| RegisterConfig {
+        search,
+        max_spread_poses,
+        ..RegisterConfig::default()
+    };
+    let free = register(&field, &seen, &prior, &with(Search::Exhaustive, usize::MAX)).unwrap();
+    assert!(free.accepted);
+    for search in [Search::Exhaustive, Search::BranchAndBound] {
+        let loose = register(&field, &seen, &prior, &with(search, 50)).unwrap();
+        assert!(!loose.accepted, "{search:?}");
+        assert_eq!(loose.pose, prior.mean);
+        assert_eq!(loose.covariance, prior.covariance());
+        let roomy = register(&field, &seen, &prior, &with(search, 1 << 20)).unwrap();
+        assert_eq!(
+            Registration {
+                evaluated: free.evaluated,
+                ..roomy
+            },
+            free,
+            "{search:?}"
+        );
+    }
+}
+
 #[test]
 fn too_little_to_match_keeps_the_prior_and_says_so() {
     let world = room();
