@@ -124,6 +124,7 @@ fn build(c: &mut Criterion) {
                     sweep: sweep as u32,
                     truth: None,
                     profile: None,
+                    map_pose: None,
                 };
                 index
                     .insert(&signature, SYNTHETIC_LIMIT_M, meta)

@@ -83,7 +83,15 @@ pub fn build(a: PlacesBuildArgs) -> Result<()> {
     for path in &a.datasets {
         let ds = super::open_dataset(path)?;
         let swept = sweep_with_bar(&ds, &a.sweep)?;
-        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept.sweeps)?;
+        // The sweeps placed in the dataset's map: a query's matches to two
+        // places then agree or not by where they put it.
+        let bar = super::progress(
+            pirouette::mapping::progress_steps(swept.sweeps.len()),
+            "map steps",
+        );
+        let run = pipeline::map_swept(&ds, &swept, &swept.map_config(&config), &|_| bar.inc(1))?;
+        bar.finish_and_clear();
+        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept.sweeps, Some(&run.frame_poses))?;
         eprintln!("{}: {filed} places", ds.manifest.name);
         if !left_out.is_empty() {
             eprintln!(
@@ -223,26 +231,36 @@ pub fn run_localise(a: LocaliseArgs) -> Result<()> {
         outln!("sweep  status      place                   x (m)    y (m)   θ (°)  score  margin")?;
     }
     for (s, ans) in sweeps.iter().zip(&answers) {
-        let trusted = ans.trusted();
-        let named = trusted.map(|m| {
+        let name = |m: &pirouette::localise::PlaceMatch| {
             let meta = &c.meta[m.place];
             (c.datasets[meta.dataset as usize].as_str(), meta.sweep, m.pose)
-        });
+        };
+        let named = ans.trusted().map(name);
+        // An ambiguous answer's look-alikes: the best and its rival.
+        let alike: Vec<_> = match (ans.verdict, ans.best, ans.rival) {
+            (Verdict::Ambiguous, Some(best), Some(rival)) => vec![name(&best), name(&rival)],
+            _ => Vec::new(),
+        };
         let score = ans.best.map_or(0.0, |m| m.score);
         if a.json {
-            let matched = named.map(|(dataset, sweep, p)| {
+            let as_json = |(dataset, sweep, p): (&str, u32, Pose2)| {
                 json!({
                     "dataset": dataset, "sweep": sweep,
                     "x": round6(p.x), "y": round6(p.y), "theta_deg": round6(p.theta.to_degrees()),
                 })
-            });
-            outln!(
-                "{}",
-                json!({"sweep": s.id, "match": matched, "score": round6(score),
-                       "margin": round6(ans.margin), "status": ans.verdict.as_str()})
-            )?;
+            };
+            let mut line = json!({"sweep": s.id, "match": named.map(as_json), "score": round6(score),
+                                  "margin": round6(ans.margin), "status": ans.verdict.as_str()});
+            if !alike.is_empty() {
+                line["ambiguous"] = alike.iter().copied().map(as_json).collect();
+            }
+            outln!("{line}")?;
         } else {
-            let place = named.map_or("-".to_string(), |(d, sw, _)| format!("{d} #{sw}"));
+            let place = match (named, alike.as_slice()) {
+                (Some((d, sw, _)), _) => format!("{d} #{sw}"),
+                (None, [(d, a, _), (e, b, _)]) => format!("{d} #{a} or {e} #{b}"),
+                _ => "-".to_string(),
+            };
             let (x, y, t) = named.map_or((f64::NAN, f64::NAN, f64::NAN), |(_, _, p)| {
                 (p.x, p.y, p.theta.to_degrees())
             });

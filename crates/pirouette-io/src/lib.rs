@@ -53,7 +53,7 @@ pub use g2o::{parse_g2o, read_g2o, write_g2o, write_pose_graph, G2oGraph, MAX_EL
 pub use map_dir::{names as map_names, read_poses, read_ros_map, write_map_dir, write_tum, PoseRecord};
 pub use places::{
     decode_place_index, read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES,
-    PLACE_INDEX_FORMAT, PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,
+    OLDEST_PLACE_INDEX_FORMAT, PLACE_INDEX_FORMAT, PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,
 };
 pub use relations::{read_relations, read_tum, Relation, StampedPose, MAX_TEXT_ROWS};
 pub use world::{FootprintHit, Obstacle, World};

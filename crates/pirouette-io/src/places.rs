@@ -19,7 +19,12 @@ use std::path::Path;
 pub const PLACE_INDEX_MAGIC: &[u8; 8] = b"PIRPLACE";
 
 /// The format version written, and the newest read.
-pub const PLACE_INDEX_FORMAT: u32 = 1;
+pub const PLACE_INDEX_FORMAT: u32 = 2;
+
+/// The oldest format read: format 1 held no map poses of its places, and
+/// a query cannot tell a place's look-alike from the place filed twice
+/// without them.
+pub const OLDEST_PLACE_INDEX_FORMAT: u32 = 2;
 
 /// Header bytes before the payload.
 pub const PLACE_INDEX_HEADER_BYTES: usize = 24;
@@ -107,6 +112,12 @@ fn parse_header(
     }
     if format == 0 {
         return Err(IoError::invalid(path, "place index format 0 does not exist"));
+    }
+    if format < OLDEST_PLACE_INDEX_FORMAT {
+        return Err(IoError::invalid(
+            path,
+            format!("place index format {format} holds no map poses of its places, which queries need to tell look-alikes apart: build it again with `pirouette places build`"),
+        ));
     }
     let mut len = [0u8; 8];
     len.copy_from_slice(&head[12..20]);

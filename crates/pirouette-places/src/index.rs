@@ -22,6 +22,11 @@ pub struct PlaceMeta {
     pub truth: Option<[f64; 3]>,
     /// The sweep's profile, kept for metric refinement of a match.
     pub profile: Option<StoredProfile>,
+    /// The sweep's first frame in its dataset's map `(x, y, θ)` (metres,
+    /// radians), where the index was built from a mapped run: two
+    /// matches to places of one dataset agree when they put the query
+    /// at one pose of that map.
+    pub map_pose: Option<[f64; 3]>,
 }
 
 /// Everything an index holds, as saved: the signatures in flat arrays

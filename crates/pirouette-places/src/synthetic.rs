@@ -75,6 +75,7 @@ pub fn random_index(places: usize, seed: u64) -> Result<PlaceIndex, PlacesError>
             sweep: sweep as u32,
             truth: None,
             profile: None,
+            map_pose: None,
         };
         index.insert(&signature, SYNTHETIC_LIMIT_M, meta)?;
     }

@@ -139,6 +139,7 @@ fn a_stored_place_seen_again_turned_is_found_first() {
         sweep: 0,
         truth: None,
         profile: Some(StoredProfile::from_rop(&rop)),
+        map_pose: None,
     };
     let id = index.insert(&s, synthetic::SYNTHETIC_LIMIT_M, meta).unwrap();
     // The same view turned by 50 bins (50°).
@@ -178,6 +179,7 @@ fn signatures_of_other_settings_or_range_limits_are_refused() {
         sweep: 0,
         truth: None,
         profile: None,
+        map_pose: None,
     };
     index.insert(&s, 2.0, meta.clone()).unwrap();
     assert!(matches!(

@@ -41,9 +41,14 @@ pub struct LocaliseConfig {
     pub sigma_heading_rad: f64,
     /// The least score of an answer: below it, "unknown place".
     pub min_score: f64,
-    /// The least margin of the answer's score over a rival's (a place the
-    /// answer does not explain): below it, "ambiguous".
+    /// The least margin of the answer's score over a rival's (another
+    /// answer: see [`Answer::rival`]): below it, "ambiguous".
     pub min_margin: f64,
+    /// Two matches within this distance of each other (in the map of
+    /// their places' dataset) are one answer, metres ...
+    pub same_answer_m: f64,
+    /// ... and within this heading, radians.
+    pub same_answer_rad: f64,
     /// Where no candidate reaches [`Self::min_score`] at the shift search's
     /// rotations, the first this many places are registered again from
     /// headings all round the circle (a view a decimetre or more from the
@@ -57,8 +62,10 @@ impl Default for LocaliseConfig {
     /// maps use it, on a 1 cm field; a place looked for within ±45 cm
     /// (σ 15 cm) and ±15° of the shift search (σ 5°); an answer trusted
     /// where it explains at least 60 % of both views, 10 points more than
-    /// any rival; failing that, the 3 first places tried from every 4σ of
-    /// heading (20°) round the circle.
+    /// any rival (matches more than 30 cm or 10° apart are two answers:
+    /// twice the position prior's σ and its heading's); failing that, the
+    /// 3 first places tried from every 4σ of heading (20°) round the
+    /// circle.
     fn default() -> Self {
         Self {
             query: QueryConfig::default(),
@@ -69,6 +76,8 @@ impl Default for LocaliseConfig {
             sigma_heading_rad: 5f64.to_radians(),
             min_score: 0.6,
             min_margin: 0.1,
+            same_answer_m: 0.3,
+            same_answer_rad: 10f64.to_radians(),
             fallback_places: 3,
         }
     }
@@ -124,6 +133,11 @@ pub struct Answer {
     /// The best score less the best rival's (the best score where there
     /// is no rival).
     pub margin: f64,
+    /// The best rival: the best-scoring match that puts the query
+    /// elsewhere (see [`LocaliseConfig::same_answer_m`]), or at a place
+    /// whose view the best's does not explain where the index cannot
+    /// tell. An ambiguous answer lists it beside the best.
+    pub rival: Option<PlaceMatch>,
     /// Candidates the index returned.
     pub candidates: usize,
 }
@@ -136,12 +150,15 @@ impl Answer {
 }
 
 /// Files the sweeps of a dataset's run in the index, as places of the
-/// dataset. A sweep that saw too little of the circle is not filed;
-/// returns how many were filed and the ids of those left out.
+/// dataset, each with its first frame's pose in the run's map where
+/// `frame_poses` (every frame's, in capture order) is given. A sweep that
+/// saw too little of the circle is not filed; returns how many were filed
+/// and the ids of those left out.
 pub fn file_sweeps(
     index: &mut PlaceIndex,
     ds: &Dataset,
     sweeps: &[DatasetSweep],
+    frame_poses: Option<&[Pose2]>,
 ) -> Result<(usize, Vec<u32>)> {
     let name = &ds.manifest.name;
     let dataset = index.dataset_id(name);
@@ -166,6 +183,9 @@ pub fn file_sweeps(
             sweep: s.id,
             truth,
             profile: Some(StoredProfile::from_rop(&s.sweep.rop)),
+            map_pose: frame_poses
+                .and_then(|poses| poses.get(s.frames[0]))
+                .map(|p| [p.x, p.y, p.theta]),
         };
         index
             .insert(&signature, s.sweep.rop.max_range_m, meta)
@@ -188,6 +208,7 @@ pub fn localise(
                 verdict: Verdict::Incomplete,
                 best: None,
                 margin: 0.0,
+                rival: None,
                 candidates: 0,
             })
         }
@@ -231,15 +252,24 @@ pub fn localise_signature(
             verdict: Verdict::Unknown,
             best: None,
             margin: 0.0,
+            rival: None,
             candidates: candidates.len(),
         };
     };
-    // A rival is a place the best does not explain: one whose own answer
-    // puts its view where the best's view does not agree with it. A place
-    // that agrees is the same spot filed twice (a revisit).
+    // A rival is another answer: a match that puts the query elsewhere in
+    // the map of the best's dataset (a look-alike, or the best place's own
+    // symmetric image), or, where the map does not tell, a place whose
+    // view the best's does not explain. Matches that agree are the same
+    // spot filed twice (a revisit).
+    let meta = |place: usize| index.contents().meta.get(place);
     let rival = refined[1..].iter().find(|(other, other_view)| {
-        let best_from_other = best.pose * other.pose.inverse();
-        best_view.explains(other_view, &best_from_other, config) < config.min_score
+        match same_map_answer(meta(best.place), best, meta(other.place), other, config) {
+            Some(same) => !same,
+            None => {
+                let best_from_other = best.pose * other.pose.inverse();
+                best_view.explains(other_view, &best_from_other, config) < config.min_score
+            }
+        }
     });
     let margin = best.score - rival.map_or(0.0, |r| r.0.score);
     let verdict = if best.score < config.min_score {
@@ -253,8 +283,35 @@ pub fn localise_signature(
         verdict,
         best: Some(*best),
         margin,
+        rival: rival.map(|r| r.0),
         candidates: candidates.len(),
     }
+}
+
+/// Whether two matches put the query at one pose (within
+/// [`LocaliseConfig::same_answer_m`] and [`LocaliseConfig::same_answer_rad`]):
+/// of one place, always; of two places of one dataset with map poses, in
+/// that map; `None` where the index cannot tell (places of two datasets,
+/// or without map poses).
+fn same_map_answer(
+    a_meta: Option<&PlaceMeta>,
+    a: &PlaceMatch,
+    b_meta: Option<&PlaceMeta>,
+    b: &PlaceMatch,
+    config: &LocaliseConfig,
+) -> Option<bool> {
+    let as_pose = |p: [f64; 3]| Pose2::new(p[0], p[1], p[2]);
+    let (pa, pb) = if a.place == b.place {
+        (a.pose, b.pose)
+    } else {
+        let (ma, mb) = (a_meta?, b_meta?);
+        if ma.dataset != mb.dataset {
+            return None;
+        }
+        (as_pose(ma.map_pose?) * a.pose, as_pose(mb.map_pose?) * b.pose)
+    };
+    let apart = pa.between(&pb);
+    Some(apart.translation().norm() <= config.same_answer_m && apart.theta.abs() <= config.same_answer_rad)
 }
 
 /// Two colours of the same surface differ by less than this in relative
@@ -398,4 +455,66 @@ fn refine(
         score: 0.5 * (forward + backward),
         rotation_rad,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pirouette_places::SignatureConfig;
+    use std::f64::consts::{PI, TAU};
+
+    /// The sweep of a bare 4 × 3 m room of one colour from `(x, y)` (the
+    /// room from its corner at the origin), heading 0, 1° bins.
+    fn bare_room_from(x: f64, y: f64) -> Rop {
+        let (w, h) = (4.0, 3.0);
+        let mut rop = Rop::empty(-PI, TAU / 360.0, 360, 4.0);
+        for i in 0..360 {
+            let (s, c) = rop.bin_centre_rad(i).sin_cos();
+            let t = [(w - x) / c, -x / c, (h - y) / s, -y / s]
+                .into_iter()
+                .filter(|t| *t > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            rop.range_m[i] = t as f32;
+        }
+        rop
+    }
+
+    fn answer(stored: &Rop, query: &Rop) -> Answer {
+        let mut index = PlaceIndex::new(SignatureConfig::default()).unwrap();
+        let signature = index.transforms().signature(stored).unwrap();
+        let meta = PlaceMeta {
+            dataset: index.dataset_id("room"),
+            sweep: 0,
+            truth: None,
+            profile: Some(StoredProfile::from_rop(stored)),
+            map_pose: Some([0.0, 0.0, 0.0]),
+        };
+        index.insert(&signature, stored.max_range_m, meta).unwrap();
+        let query_signature = index.transforms().signature(query).unwrap();
+        localise_signature(&index, &query_signature, query, &LocaliseConfig::default())
+    }
+
+    /// From the centre of a bare rectangular room, the view turned half
+    /// round is the same view: the answer is ambiguous between the two
+    /// headings, never a confident one of them.
+    #[test]
+    fn a_place_and_its_own_symmetric_image_are_two_answers() {
+        let centre = bare_room_from(2.0, 1.5);
+        let a = answer(&centre, &centre);
+        assert_eq!(a.verdict, Verdict::Ambiguous, "{a:?}");
+        let (best, rival) = (a.best.unwrap(), a.rival.unwrap());
+        let apart = best.pose.between(&rival.pose);
+        assert!((apart.theta.abs() - PI).abs() < 5f64.to_radians(), "{a:?}");
+        assert!(a.margin < LocaliseConfig::default().min_margin);
+
+        // Off the room's centre lines the view has no such image.
+        let off = bare_room_from(1.2, 1.0);
+        let b = answer(&off, &off);
+        assert_eq!(b.verdict, Verdict::Known, "{b:?}");
+        let pose = b.best.unwrap().pose;
+        assert!(
+            pose.translation().norm() < 0.02 && pose.theta.abs() < 1f64.to_radians(),
+            "{b:?}"
+        );
+    }
 }

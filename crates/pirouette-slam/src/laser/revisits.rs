@@ -115,6 +115,7 @@ impl Keyframes {
                 sweep: u32::try_from(j).unwrap_or(u32::MAX),
                 truth: None,
                 profile: None,
+                map_pose: None,
             };
             self.index.insert(&signature, config.max_range_m, meta)?;
             self.frame_of_place.push(self.frames.len());

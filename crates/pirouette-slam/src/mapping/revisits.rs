@@ -81,6 +81,7 @@ pub(super) fn recognise(
                 sweep: sweeps[p].id,
                 truth: None,
                 profile: Some(StoredProfile::from_rop(prev)),
+                map_pose: None,
             };
             if index.insert(&sig, prev.max_range_m, meta).is_ok() {
                 sweep_of.push(p);
