@@ -225,6 +225,14 @@ fn bad_graphs_and_outputs_are_refused_naming_the_file() {
             "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n",
             "not joined",
         ),
+        // Two parts, each with its poses given: where the second lies
+        // relative to the first is unknown.
+        (
+            "parts.g2o",
+            "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 5 5 0\nVERTEX_SE2 3 6 5 0.1\n\
+             EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1.1 0 0.1 1 0 0 1 0 1\n",
+            "pose 2 is not joined",
+        ),
     ];
     for (name, text, what) in cases {
         let input = dir.path().join(name);

@@ -73,6 +73,13 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
     let start = Instant::now();
     let mut g = read_g2o(&a.input)?;
     let read_s = start.elapsed().as_secs_f64();
+    if let Some(pose) = g.graph.unreached() {
+        bail!(
+            "{}: pose {pose} is not joined to the held pose {} by any chain of edges: where one part lies relative to the other is unknown (optimise each part as a graph of its own)",
+            a.input.display(),
+            g.graph.held
+        );
+    }
     if a.residual == "log" {
         g.graph.residual = Residual::Log;
     }

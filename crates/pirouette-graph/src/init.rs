@@ -347,6 +347,23 @@ mod tests {
     }
 
     #[test]
+    fn a_pose_out_of_reach_is_found_before_any_solve() {
+        let mut graph = PoseGraph::new(vec![Pose2::IDENTITY; 5]);
+        for (a, b) in [(0, 1), (2, 3), (3, 4)] {
+            graph
+                .edges
+                .push(Edge::new(a, b, Pose2::new(1.0, 0.0, 0.0), info()));
+        }
+        assert_eq!(graph.unreached(), Some(2));
+        graph.held = 3;
+        assert_eq!(graph.unreached(), Some(0));
+        graph
+            .edges
+            .push(Edge::new(4, 1, Pose2::new(1.0, 0.0, 0.0), info()));
+        assert_eq!(graph.unreached(), None);
+    }
+
+    #[test]
     fn a_pose_out_of_reach_is_reported() {
         let mut graph = PoseGraph::new(vec![Pose2::IDENTITY; 4]);
         graph

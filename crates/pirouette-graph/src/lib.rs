@@ -354,6 +354,27 @@ impl PoseGraph {
             .sum()
     }
 
+    /// The first pose that no chain of edges joins to the held one
+    /// (`None`: the graph is one piece). Such a pose's place relative to
+    /// the held one is unknown: an optimiser can only leave it where it
+    /// started.
+    pub fn unreached(&self) -> Option<usize> {
+        let n = self.poses.len();
+        let mut neighbours: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for e in self.edges.iter().filter(|e| e.from < n && e.to < n) {
+            neighbours[e.from].push(e.to);
+            neighbours[e.to].push(e.from);
+        }
+        let mut reached = vec![false; n];
+        let mut stack: Vec<usize> = (self.held < n).then_some(self.held).into_iter().collect();
+        while let Some(p) = stack.pop() {
+            if !std::mem::replace(&mut reached[p], true) {
+                stack.extend(neighbours[p].iter().copied().filter(|&q| !reached[q]));
+            }
+        }
+        reached.iter().position(|r| !r)
+    }
+
     /// Checks that every index in `edges` names an edge of the graph (the
     /// error says they were `asked_as`).
     pub(crate) fn check_edge_indices(&self, edges: &[usize], asked_as: &str) -> Result<(), GraphError> {
