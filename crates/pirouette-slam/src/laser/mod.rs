@@ -21,7 +21,8 @@ use pirouette_grid::{GridConfig, OccupancyGrid};
 use pirouette_io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
 use pirouette_profile::Rop;
 use pirouette_register::{
-    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, Registration,
+    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, RegisterError,
+    Registration,
 };
 use revisits::{Keyframes, Track};
 use std::collections::VecDeque;
@@ -83,11 +84,19 @@ pub struct LaserConfig {
     pub local_scans: usize,
     /// Raw odometry as a prior.
     pub odometry: OdometryNoise,
-    /// The prior where the log holds no odometry for a step: the previous
-    /// pose, this far off in position (metres, one σ) ...
+    /// Where the log holds no odometry for a step, the robot may have
+    /// stood or moved a little: the previous pose, this far off in
+    /// position (metres, one σ) ...
     pub unknown_step_m: f64,
-    /// ... and in heading (radians, one σ).
+    /// ... and in heading (radians, one σ); ...
     pub unknown_step_rad: f64,
+    /// ... it may have turned in place through any angle: the previous
+    /// position, this far off (metres, one σ); ...
+    pub unknown_turn_m: f64,
+    /// ... or repeated its last step, or driven on as far as it last
+    /// drove, off by this much. The most probable of the matches is kept
+    /// (see [`blind_priors`]).
+    pub unknown_repeat: OdometryNoise,
     /// Loop closure.
     pub loops: LoopConfig,
     /// Which scans are registered.
@@ -221,8 +230,11 @@ impl Default for LaserConfig {
     /// the local map; registration with a 5 cm Gaussian (the local map's
     /// cell), endpoints thinned to one per 5 cm, a window of at most
     /// ±2.5 m; the last 30 scans as the local map; a step without odometry
-    /// searched ±3σ of 0.8 m and 25° (a metre and more apart, turns to
-    /// about 60°).
+    /// searched as a stand of ±3σ of 0.8 m and 25° (a metre and more
+    /// apart, turns to about 60°), a turn in place within 25 cm (σ), and
+    /// a repeat of the last step (or a drive on after a turn) off by 20 %
+    /// of its length plus 10 cm per radian (at least 10 cm) and 30 % of
+    /// its turn plus 4° per metre (at least 4°).
     fn default() -> Self {
         Self {
             max_range_m: 20.0,
@@ -243,6 +255,15 @@ impl Default for LaserConfig {
             odometry: OdometryNoise::default(),
             unknown_step_m: 0.8,
             unknown_step_rad: 25f64.to_radians(),
+            unknown_turn_m: 0.25,
+            unknown_repeat: OdometryNoise {
+                per_m: 0.2,
+                m_per_rad: 0.1,
+                per_rad: 0.3,
+                rad_per_m: 4f64.to_radians(),
+                floor_m: 0.1,
+                floor_rad: 4f64.to_radians(),
+            },
             loops: LoopConfig::default(),
             motion_filter: MotionFilter::default(),
         }
@@ -280,41 +301,131 @@ pub fn scan_profile(scan: &LaserScan, max_range_m: f32) -> Rop {
 }
 
 /// The prior of a scan's pose from the previous pose and the step's raw
-/// odometry (`None`: the log holds none).
+/// odometry (`None`: the log holds none; the first of [`blind_priors`]).
 pub fn step_prior(previous: &Pose2, odometry: Option<&Pose2>, config: &LaserConfig) -> PosePrior {
     match odometry {
-        Some(step) => {
-            let n = &config.odometry;
-            let (d, t) = (step.translation().norm(), step.theta.abs());
-            let sigma_m = (n.per_m * d + n.m_per_rad * t).hypot(n.floor_m);
-            PosePrior {
-                mean: *previous * *step,
-                sigma_forward_m: sigma_m,
-                sigma_left_m: sigma_m,
-                sigma_theta_rad: (n.per_rad * t + n.rad_per_m * d).hypot(n.floor_rad),
-            }
-        }
-        None => PosePrior {
-            mean: *previous,
-            sigma_forward_m: config.unknown_step_m,
-            sigma_left_m: config.unknown_step_m,
-            sigma_theta_rad: config.unknown_step_rad,
-        },
+        Some(step) => moved_by(previous, step, &config.odometry),
+        None => blind_priors(previous, &MotionSoFar::default(), config)[0].1,
     }
+}
+
+/// `previous` moved by `step`, measured with `noise`.
+fn moved_by(previous: &Pose2, step: &Pose2, noise: &OdometryNoise) -> PosePrior {
+    let n = noise;
+    let (d, t) = (step.translation().norm(), step.theta.abs());
+    let sigma_m = (n.per_m * d + n.m_per_rad * t).hypot(n.floor_m);
+    PosePrior {
+        mean: *previous * *step,
+        sigma_forward_m: sigma_m,
+        sigma_left_m: sigma_m,
+        sigma_theta_rad: (n.per_rad * t + n.rad_per_m * d).hypot(n.floor_rad),
+    }
+}
+
+/// What a log without odometry tells of the robot's motion: its matched
+/// steps so far.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MotionSoFar {
+    /// The newest scan's matched step from the scan before it (`None`
+    /// where that match was not trusted).
+    pub last_step: Option<Pose2>,
+    /// The distance of the last step that drove (moved farther than
+    /// [`LaserConfig::unknown_step_m`]), metres.
+    pub last_drive_m: Option<f64>,
+}
+
+impl MotionSoFar {
+    /// After a step matched as `step` (`None`: not trusted).
+    pub fn after(self, step: Option<Pose2>, config: &LaserConfig) -> Self {
+        let drive = step
+            .map(|s| s.translation().norm())
+            .filter(|&d| d > config.unknown_step_m);
+        Self {
+            last_step: step,
+            last_drive_m: drive.or(self.last_drive_m),
+        }
+    }
+}
+
+/// A motion a robot may have made over a step the log holds no odometry
+/// for (see [`blind_priors`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlindMotion {
+    /// Stood, or moved a little.
+    Stood,
+    /// Turned in place through any angle.
+    Turned,
+    /// Repeated its last matched step.
+    Repeated,
+    /// Drove straight on as far as it last drove.
+    DroveOn,
+}
+
+impl BlindMotion {
+    /// Whether the motion keeps the robot's course (it stood or went on
+    /// as it was going); the others break it.
+    pub fn keeps_course(self) -> bool {
+        matches!(self, BlindMotion::Stood | BlindMotion::Repeated)
+    }
+}
+
+/// The priors of a step the log holds no odometry for, one per motion a
+/// robot may have made since the previous scan: stood or moved a little
+/// ([`LaserConfig::unknown_step_m`]); turned in place through any angle;
+/// repeated its last step (a robot keeps its speed and turn rate from scan
+/// to scan); or, where that step did not drive, driven straight on as far
+/// as it last drove (a robot that moves by turns in place and straight
+/// moves, as the paper's, drives on after a turn). The first is always
+/// [`BlindMotion::Stood`].
+pub fn blind_priors(
+    previous: &Pose2,
+    motion: &MotionSoFar,
+    config: &LaserConfig,
+) -> Vec<(BlindMotion, PosePrior)> {
+    let mut priors = vec![
+        (
+            BlindMotion::Stood,
+            PosePrior {
+                mean: *previous,
+                sigma_forward_m: config.unknown_step_m,
+                sigma_left_m: config.unknown_step_m,
+                sigma_theta_rad: config.unknown_step_rad,
+            },
+        ),
+        (
+            BlindMotion::Turned,
+            PosePrior {
+                mean: *previous,
+                sigma_forward_m: config.unknown_turn_m,
+                sigma_left_m: config.unknown_turn_m,
+                sigma_theta_rad: std::f64::consts::FRAC_PI_3,
+            },
+        ),
+    ];
+    let noise = &config.unknown_repeat;
+    priors.extend(
+        motion
+            .last_step
+            .map(|step| (BlindMotion::Repeated, moved_by(previous, &step, noise))),
+    );
+    let drove = motion
+        .last_step
+        .is_some_and(|s| s.translation().norm() > config.unknown_step_m);
+    if !drove {
+        let on = motion.last_drive_m.map(|d| Pose2::new(d, 0.0, 0.0));
+        priors.extend(on.map(|step| (BlindMotion::DroveOn, moved_by(previous, &step, noise))));
+    }
+    priors
 }
 
 /// Whether `pose` lies within a cell (or a degree) of the edge of the
 /// window [`register`] searched about `prior`.
 fn at_window_edge(prior: &PosePrior, pose: &Pose2, config: &RegisterConfig, cell_m: f64) -> bool {
-    // The window is a box about the prior's mean in map axes.
-    let window = |variance: f64| (config.window_sigmas * variance.sqrt()).min(config.max_window_m);
-    let cov = prior.covariance();
-    let edge_x = (pose.x - prior.mean.x).abs() >= window(cov[(0, 0)]) - cell_m;
-    let edge_y = (pose.y - prior.mean.y).abs() >= window(cov[(1, 1)]) - cell_m;
-    let half_t = (config.window_sigmas * prior.sigma_theta_rad).min(std::f64::consts::PI);
+    let w = prior.window(config);
     let turn = pirouette_geom::wrap_angle(pose.theta - prior.mean.theta);
-    let edge_t = turn.abs() >= half_t - 1f64.to_radians();
-    edge_x || edge_y || edge_t
+    (pose.x - prior.mean.x).abs() >= w.half_x - cell_m
+        || (pose.y - prior.mean.y).abs() >= w.half_y - cell_m
+        || turn.abs() >= w.half_t - 1f64.to_radians()
 }
 
 /// The most scans a local map or a keyframe's map (each side) may hold:
@@ -333,9 +444,20 @@ pub fn check_config(config: &LaserConfig) -> Result<()> {
     }
     if !(positive(config.field_resolution_m)
         && positive(config.unknown_step_m)
-        && positive(config.unknown_step_rad))
+        && positive(config.unknown_step_rad)
+        && positive(config.unknown_turn_m))
     {
         bail!("the local map's cell and the unknown step's spreads must be positive");
+    }
+    for (what, n) in [
+        ("odometry", &config.odometry),
+        ("repeated step", &config.unknown_repeat),
+    ] {
+        let rates = [n.per_m, n.m_per_rad, n.per_rad, n.rad_per_m];
+        if !(rates.iter().all(|v| v.is_finite() && *v >= 0.0) && positive(n.floor_m) && positive(n.floor_rad))
+        {
+            bail!("the {what} noise's rates must be zero or more and its floors positive: {n:?}");
+        }
     }
     if !(1..=MAX_WINDOW_SCANS).contains(&config.local_scans) || config.loops.anchor_scans > MAX_WINDOW_SCANS {
         bail!(
@@ -475,6 +597,8 @@ struct Mapper<'c> {
     /// identity where that is the newest): the next scan's prior starts
     /// there.
     newest: Pose2,
+    /// The steps matched so far, for steps without odometry.
+    motion: MotionSoFar,
     /// The local map's likelihood field while the scans and poses it was
     /// made of stand (a scan registered or a graph solved drops it).
     field: Option<LikelihoodField>,
@@ -533,6 +657,7 @@ impl<'c> Mapper<'c> {
             solves: 0,
             placed: Vec::new(),
             newest: Pose2::IDENTITY,
+            motion: MotionSoFar::default(),
             field: None,
         })
     }
@@ -545,38 +670,106 @@ impl<'c> Mapper<'c> {
         let points = self.scan_points(frame);
         let last = self.poses.len() - 1;
         let odometry = frame.odometry();
-        let prior = step_prior(&(self.poses[last] * self.newest), odometry.as_ref(), config);
+        let previous = self.poses[last] * self.newest;
         let field = match self.field.take() {
             Some(field) => field,
             None => self.field((last + 1).saturating_sub(config.local_scans)..last + 1),
         };
-        let mut reg = register(&field, &points, &prior, &config.register);
-        // A best pose on the window's edge may have a better one beyond:
-        // the odometry was wrong by more than its noise (a wheel slipping,
-        // a robot pushed). Searched again, three times as wide (a step
-        // without odometry is searched wide already); that
-        // answer counts where its best lies inside its own window (one on
-        // the edge again is a ridge, a corridor's length, that a wider
-        // window only slides along: the odometry's pose stands there).
-        if let Ok(r) = &reg {
-            let cell = config.field_resolution_m;
-            if odometry.is_some() && r.accepted && at_window_edge(&prior, &r.pose, &config.register, cell) {
-                let wide = PosePrior {
-                    sigma_forward_m: 3.0 * prior.sigma_forward_m,
-                    sigma_left_m: 3.0 * prior.sigma_left_m,
-                    sigma_theta_rad: 3.0 * prior.sigma_theta_rad,
-                    ..prior
-                };
-                let again = register(&field, &points, &wide, &config.register);
-                if let Ok(w) = again {
-                    if w.accepted && !at_window_edge(&wide, &w.pose, &config.register, cell) {
-                        reg = Ok(w);
-                    }
-                }
-            }
-        }
+        let reg = match &odometry {
+            Some(step) => self.with_odometry(&field, &points, &previous, step),
+            None => self.blind(&field, &points, &previous),
+        };
+        let step = reg
+            .as_ref()
+            .ok()
+            .filter(|r| r.accepted)
+            .map(|r| previous.between(&r.pose));
+        self.motion = self.motion.after(step, config);
         self.field = Some(field);
         Ok((points, reg.with_context(label)?))
+    }
+
+    /// A match from `previous` moved by the step's odometry. A best pose
+    /// on the window's edge may have a better one beyond: the odometry was
+    /// wrong by more than its noise (a wheel slipping, a robot pushed).
+    /// Searched again, three times as wide; that answer counts where its
+    /// best lies inside its own window (one on the edge again is a ridge,
+    /// a corridor's length, that a wider window only slides along: the
+    /// odometry's pose stands there).
+    fn with_odometry(
+        &self,
+        field: &LikelihoodField,
+        points: &[Point2],
+        previous: &Pose2,
+        step: &Pose2,
+    ) -> Result<Registration, RegisterError> {
+        let config = self.config;
+        let prior = moved_by(previous, step, &config.odometry);
+        let reg = register(field, points, &prior, &config.register)?;
+        let cell = config.field_resolution_m;
+        if reg.accepted && at_window_edge(&prior, &reg.pose, &config.register, cell) {
+            let wide = PosePrior {
+                sigma_forward_m: 3.0 * prior.sigma_forward_m,
+                sigma_left_m: 3.0 * prior.sigma_left_m,
+                sigma_theta_rad: 3.0 * prior.sigma_theta_rad,
+                ..prior
+            };
+            let again = register(field, points, &wide, &config.register)?;
+            if again.accepted && !at_window_edge(&wide, &again.pose, &config.register, cell) {
+                return Ok(again);
+            }
+        }
+        Ok(reg)
+    }
+
+    /// A match of a step without odometry: one under each of
+    /// [`blind_priors`], the trusted one of highest posterior density
+    /// kept (the endpoints' summed log-likelihood at its pose plus its
+    /// prior's normalised log density there). A motion that breaks the
+    /// robot's course (see [`BlindMotion::keeps_course`]) is taken only
+    /// where it beats every trusted one that keeps it by
+    /// [`LoopConfig::min_rival_gap_ln`]: in a corridor, a half turn
+    /// explains a scan about as well as a step on, and a robot keeps its
+    /// course far more often than it turns round. None trusted, the first
+    /// prior's answer.
+    fn blind(
+        &self,
+        field: &LikelihoodField,
+        points: &[Point2],
+        previous: &Pose2,
+    ) -> Result<Registration, RegisterError> {
+        let config = self.config;
+        let mut trusted: Vec<(f64, BlindMotion, Registration)> = Vec::new();
+        let mut untrusted = None;
+        for (motion, prior) in blind_priors(previous, &self.motion, config) {
+            let reg = register(field, points, &prior, &config.register)?;
+            if reg.accepted {
+                let ln = reg.mean_log_likelihood * reg.points as f64 + prior.ln_density(&reg.pose);
+                trusted.push((ln, motion, reg));
+            } else if untrusted.is_none() {
+                untrusted = Some(reg);
+            }
+        }
+        let most = |keeping: bool| {
+            trusted
+                .iter()
+                .filter(|t| !keeping || t.1.keeps_course())
+                .max_by(|a, b| a.0.total_cmp(&b.0))
+        };
+        let chosen = match (most(false), most(true)) {
+            (Some(best), Some(course)) if best.0 - course.0 < config.loops.min_rival_gap_ln => Some(course),
+            (best, _) => best,
+        };
+        match (chosen, untrusted) {
+            (Some(t), _) => Ok(t.2.clone()),
+            (None, Some(reg)) => Ok(reg),
+            (None, None) => register(
+                field,
+                points,
+                &step_prior(previous, None, config),
+                &config.register,
+            ),
+        }
     }
 
     /// Registers scan `k` (`points` its thinned endpoints, `reg` its match,
