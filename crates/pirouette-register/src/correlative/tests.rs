@@ -179,18 +179,23 @@ fn recovers_a_pose_far_off_its_prior() {
     assert!(c[(0, 0)] < prior.covariance()[(0, 0)] && c[(2, 2)] < prior.covariance()[(2, 2)]);
 }
 
-#[test]
-fn a_corridor_is_uncertain_along_its_walls() {
-    // Two long parallel walls along x, nothing across.
+/// Two long parallel walls along x 0.6 m apart, nothing across: their
+/// field, the truth at the middle, and what it sees.
+fn corridor() -> (LikelihoodField, Pose2, Vec<Point2>) {
     let mut world = Vec::new();
     for k in 0..=1500 {
         let x = k as f64 * 0.002;
         world.push(Point2::new(x, 0.0));
         world.push(Point2::new(x, 0.6));
     }
-    let field = field_of(&world);
     let truth = Pose2::new(1.5, 0.3, 0.0);
     let seen = seen_from(&world, &truth, 0.9, 0.002, 2);
+    (field_of(&world), truth, seen)
+}
+
+#[test]
+fn a_corridor_is_uncertain_along_its_walls() {
+    let (field, truth, seen) = corridor();
     let start = Pose2::new(1.0, 0.3, 0.0);
     let prior = PosePrior::after_forward(&start, 0.5, 0.5f64.to_radians(), &MotionNoise::default());
     let reg = register(&field, &seen, &prior, &RegisterConfig::default()).unwrap();
@@ -211,15 +216,7 @@ fn a_corridor_is_uncertain_along_its_walls() {
 /// nothing.
 #[test]
 fn a_posterior_spread_over_too_many_poses_is_not_trusted() {
-    let mut world = Vec::new();
-    for k in 0..=1500 {
-        let x = k as f64 * 0.002;
-        world.push(Point2::new(x, 0.0));
-        world.push(Point2::new(x, 0.6));
-    }
-    let field = field_of(&world);
-    let truth = Pose2::new(1.5, 0.3, 0.0);
-    let seen = seen_from(&world, &truth, 0.9, 0.002, 2);
+    let (field, _, seen) = corridor();
     let prior = PosePrior::after_forward(&Pose2::new(1.0, 0.3, 0.0), 0.5, 0.01, &MotionNoise::default());
     let with = |search, max_spread_poses| RegisterConfig {
         search,
