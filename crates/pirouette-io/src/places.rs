@@ -168,8 +168,11 @@ mod tests {
         flipped[good.len() / 2] ^= 0x10;
         refused(&flipped, "checksum");
         let mut newer = good.clone();
-        newer[8] = 2;
+        newer[8..12].copy_from_slice(&(PLACE_INDEX_FORMAT + 1).to_le_bytes());
         refused(&newer, "newer than this build reads");
+        let mut older = good.clone();
+        older[8..12].copy_from_slice(&1u32.to_le_bytes());
+        refused(&older, "build it again");
         let mut other = good.clone();
         other[0] = b'X';
         refused(&other, "not a place index");
