@@ -235,7 +235,7 @@ fn absurd_laser_settings_are_refused_before_reading() {
 }
 
 #[test]
-fn a_log_without_odometry_is_matched_without_a_motion_prior() {
+fn a_log_without_odometry_maps_to_its_true_path() {
     let path = true_path();
     let (_dir, _log, reg) = registered(&simulated_log(&path, false, 2));
     assert!(reg.scans.iter().skip(1).all(|s| s.odometry.is_none()));

@@ -110,7 +110,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
         outln!("odometry of {n} steps from {}", src.describe())?;
     }
     if none > 0 {
-        outln!("{none} steps had no odometry in the log and were searched without a motion prior")?;
+        outln!("{none} steps had no odometry in the log and were matched under each motion the robot may have made")?;
     }
     let ros = RosMap::from_grid(&mapped.grid);
     outln!(
