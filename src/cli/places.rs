@@ -89,9 +89,20 @@ pub fn build(a: PlacesBuildArgs) -> Result<()> {
             pirouette::mapping::progress_steps(swept.sweeps.len()),
             "map steps",
         );
-        let run = pipeline::map_swept(&ds, &swept, &swept.map_config(&config), &|_| bar.inc(1))?;
+        let run = pipeline::map_swept(&ds, &swept, &swept.map_config(&config), &|_| bar.inc(1));
         bar.finish_and_clear();
-        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept.sweeps, Some(&run.frame_poses))?;
+        // A dataset that cannot be mapped is filed without map poses: its
+        // places' look-alikes are then told apart by their views alone.
+        let run = run
+            .map_err(|e| {
+                eprintln!(
+                    "{}: not mapped ({e:#}); its places are filed without map poses",
+                    ds.manifest.name
+                )
+            })
+            .ok();
+        let poses = run.as_ref().map(|r| r.frame_poses.as_slice());
+        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept.sweeps, poses)?;
         eprintln!("{}: {filed} places", ds.manifest.name);
         if !left_out.is_empty() {
             eprintln!(
