@@ -189,13 +189,17 @@ pub struct RegisterConfig {
     /// at least `10⁻⁹` of the best's) for the match to be trusted: one
     /// that loose does not pin the pose (a featureless view, or a wide
     /// search through look-alike places), and holding its poses would
-    /// take 32 MB per million.
+    /// take 32 MB per million. The branch-and-bound search counts, after
+    /// every batch of rotations, the poses near the best found so far (a
+    /// superset of the final ones): it may give up on a posterior just
+    /// under the limit that the exhaustive search keeps.
     pub max_spread_poses: usize,
 }
 
 /// How [`register`] searches its lattice. Both find the same best pose and
 /// the same posterior (every pose whose weight counts, scored alike and
-/// summed in the same order); they differ only in time.
+/// summed in the same order); they differ only in time (and, near
+/// [`RegisterConfig::max_spread_poses`], in when they give up).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Search {
     /// Score every pose: the reference.
