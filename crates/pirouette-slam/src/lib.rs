@@ -21,12 +21,16 @@
 //! use pirouette_slam::laser::{map_log, LaserConfig};
 //! let map = map_log("intel.log".as_ref(), &LaserConfig::default(), &BagOptions::default(), &|| ())?;
 //! println!("{} scans registered", map.registered.scans.len());
-//! # Ok::<(), anyhow::Error>(())
+//! # Ok::<(), pirouette_slam::SlamError>(())
 //! ```
 #![deny(missing_docs)]
 
+pub use error::{Result, SlamError};
+
 use std::path::Path;
 
+mod error;
+pub mod final_grid;
 pub mod frame;
 pub mod laser;
 pub mod localise;

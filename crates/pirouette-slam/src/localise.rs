@@ -9,8 +9,8 @@
 //! the best where its score clears a threshold and no look-alike comes
 //! close.
 
+use crate::error::{Result, SlamError};
 use crate::frame::DatasetSweep;
-use anyhow::{Context, Result};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::{Point2, Pose2};
 use pirouette_io::Dataset;
@@ -164,6 +164,7 @@ pub fn file_sweeps(
     let dataset = index.dataset_id(name);
     let mut left_out = Vec::new();
     let mut filed = 0;
+    let at = |id: u32| format!("{}: sweep {id}", ds.manifest_path().display());
     for s in sweeps {
         let signature = match index.transforms().signature(&s.sweep.rop) {
             Ok(sig) => sig,
@@ -171,9 +172,7 @@ pub fn file_sweeps(
                 left_out.push(s.id);
                 continue;
             }
-            Err(e) => {
-                return Err(e).with_context(|| format!("{}: sweep {}", ds.manifest_path().display(), s.id))
-            }
+            Err(e) => return Err(SlamError::from(e).at(at(s.id))),
         };
         let truth = ds.manifest.frames[s.frames[0]]
             .truth
@@ -189,7 +188,7 @@ pub fn file_sweeps(
         };
         index
             .insert(&signature, s.sweep.rop.max_range_m, meta)
-            .with_context(|| format!("{}: sweep {}", ds.manifest_path().display(), s.id))?;
+            .map_err(|e| SlamError::from(e).at(at(s.id)))?;
         filed += 1;
     }
     Ok((filed, left_out))

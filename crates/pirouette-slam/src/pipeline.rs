@@ -7,9 +7,9 @@
 //! ([`sweep_profiles`], [`sweeps`], [`crate::mapping::build_map`]) are
 //! public for benchmarks and for callers that need one stage alone.
 
+use crate::error::{Result, SlamError};
 use crate::frame::{camera_frames, camera_motions, DatasetSweep, Frame, FrameProfiles};
 use crate::mapping::{build_map, check_extent, MapConfig, MapRun};
-use anyhow::{Context, Result};
 use pirouette_camera::ModelKind;
 use pirouette_io::{Dataset, Motion};
 use pirouette_profile::matching::MatchView;
@@ -60,20 +60,26 @@ impl PipelineConfig {
     /// width), a far reach of at least the soft limit, and a grid that can
     /// be made.
     pub fn check(&self) -> Result<()> {
-        self.vision.validate().context("vision settings")?;
+        self.vision.validate()?;
         let bin = self.vision.bin_width_rad;
         let window = self.sweep.matching.window_rad;
         if !(window.is_finite() && window >= bin) {
-            anyhow::bail!(
-                "the turn window ±{:.3}° is narrower than one profile bin ({:.3}°)",
-                window.to_degrees(),
-                bin.to_degrees()
-            );
+            return Err(SlamError::settings(
+                "pipeline",
+                format!(
+                    "the turn window ±{:.3}° is narrower than one profile bin ({:.3}°)",
+                    window.to_degrees(),
+                    bin.to_degrees()
+                ),
+            ));
         }
         if !(self.map.far_reach.is_finite() && self.map.far_reach >= 1.0) {
-            anyhow::bail!("far reach {} is not a factor of at least 1", self.map.far_reach);
+            return Err(SlamError::settings(
+                "pipeline",
+                format!("far reach {} is not a factor of at least 1", self.map.far_reach),
+            ));
         }
-        pirouette_grid::OccupancyGrid::new(self.map.grid.clone()).context("grid settings")?;
+        pirouette_grid::OccupancyGrid::new(self.map.grid.clone())?;
         Ok(())
     }
 }
@@ -144,10 +150,12 @@ pub fn sweep_dataset(
         .map(|step| (step * SUB_PIXEL_ROWS) as f32);
     let (sweeps, sweep_config) = sweeps(&frames, least_sigma, &config.sweep);
     // The floor nearer than the bottom row is not seen.
-    let blind_m = extractor
-        .table()
-        .blind_range()
-        .with_context(|| format!("{}: the camera sees no floor", ds.manifest_path().display()))?;
+    let blind_m = extractor.table().blind_range().ok_or_else(|| {
+        SlamError::Input {
+            problem: "the camera sees no floor".into(),
+        }
+        .at(ds.manifest_path().display().to_string())
+    })?;
     Ok(Swept {
         extractor,
         frames,
@@ -170,7 +178,7 @@ pub fn map_dataset(
         ds.manifest.max_range * config.map.far_reach,
         &config.map.grid,
     )
-    .with_context(name)?;
+    .map_err(|e| e.at(name()))?;
     // Profiles and sweeps.
     let swept = sweep_dataset(ds, config, progress)?;
     // Sweeps registered against each other, their frames fused in the grid.
@@ -194,7 +202,7 @@ pub fn map_swept(
     build_map(&swept.frames, &swept.sweeps, swept.blind_m, config, || {
         progress(Stage::Placed)
     })
-    .with_context(|| ds.manifest_path().display().to_string())
+    .map_err(|e| e.at(ds.manifest_path().display().to_string()))
 }
 
 /// The extractor for a dataset's camera (`model`, or the most accurate
@@ -202,7 +210,7 @@ pub fn map_swept(
 pub fn extractor(ds: &Dataset, model: Option<ModelKind>, config: VisionConfig) -> Result<RopExtractor> {
     let camera = ds.camera(model)?;
     RopExtractor::try_new(&camera, ds.manifest.max_range, config)
-        .with_context(|| format!("{}: camera", ds.manifest_path().display()))
+        .map_err(|e| SlamError::from(e).at(format!("{}: camera", ds.manifest_path().display())))
 }
 
 /// The profile of every frame, in capture order (frames in parallel).
@@ -226,7 +234,7 @@ fn profiles_with(
             let name = || ds.image_path(i).display().to_string();
             let rops = extractors
                 .iter()
-                .map(|e| e.rop(&img).with_context(name))
+                .map(|e| e.rop(&img).map_err(|e| SlamError::from(e).at(name())))
                 .collect::<Result<Vec<Rop>>>()?;
             progress();
             Ok(rops)

@@ -5,7 +5,7 @@
 //! and verified by registration.
 
 use super::LaserConfig;
-use anyhow::Result;
+use crate::error::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, QueryConfig, SignatureConfig};
 use pirouette_profile::Rop;

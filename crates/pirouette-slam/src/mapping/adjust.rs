@@ -3,11 +3,13 @@
 //! the forward moves between them, and the sweeps moved together, each a
 //! rigid whole, to agree with all of it.
 
+use super::build::{forward_distance, last_frame, refine_pass};
 use super::fields::{field_in, seen_by};
-use super::{far_reach_m, forward_distance, graph, last_frame, refine_pass, revisits, MapConfig, Placed};
+use super::placed::{far_reach_m, Placed};
+use super::{graph, revisits, MapConfig};
+use crate::error::Result;
 use crate::frame::DatasetSweep;
 use crate::frame::Frame;
-use anyhow::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_register::{register, LikelihoodField, PosePrior};
 use rayon::prelude::*;

@@ -1,10 +1,11 @@
 //! The headings of a sweep's frames: a chain of the turns as the sweep
 //! measured them, anchored by each frame's own registration.
 
-use super::{MapConfig, Placed};
+use super::placed::Placed;
+use super::MapConfig;
+use crate::error::Result;
 use crate::frame::DatasetSweep;
 use crate::frame::Frame;
-use anyhow::Result;
 use pirouette_geom::Point2;
 use pirouette_register::{register, LikelihoodField, PosePrior};
 use rayon::prelude::*;

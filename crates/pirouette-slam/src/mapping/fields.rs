@@ -1,10 +1,11 @@
 //! What the frames placed so far saw, and the likelihood fields that
 //! registration matches against.
 
-use super::{far_reach_m, MapConfig, Placed};
+use super::placed::{far_reach_m, Placed};
+use super::MapConfig;
+use crate::error::Result;
 use crate::frame::DatasetSweep;
 use crate::frame::Frame;
-use anyhow::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::OccupancyGrid;
 use pirouette_profile::Rop;

@@ -3,10 +3,10 @@
 //! and a place it is recognised at becomes a candidate loop edge for the
 //! joint adjustment, whatever the drift says of where the two lie.
 
-use super::Placed;
+use super::placed::Placed;
+use crate::error::{Result, SlamError};
 use crate::frame::DatasetSweep;
 use crate::localise::{localise_signature, LocaliseConfig};
-use anyhow::{Context, Result};
 use pirouette_geom::Pose2;
 use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, SignatureConfig, StoredProfile};
 
@@ -51,7 +51,7 @@ pub(super) fn recognise(
         let signature = match index.transforms().signature(rop) {
             Ok(sig) => Some(sig),
             Err(PlacesError::IncompleteSweep { .. }) => None,
-            Err(e) => return Err(e).with_context(|| format!("sweep {}", sweep.id)),
+            Err(e) => return Err(SlamError::from(e).at(format!("sweep {}", sweep.id))),
         };
         if let Some(sig) = &signature {
             if !index.is_empty() && index.check_signature(sig, rop.max_range_m).is_ok() {
