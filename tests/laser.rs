@@ -224,7 +224,10 @@ fn absurd_laser_settings_are_refused_before_reading() {
             "NaN keyframe spacing",
             with(&|c| c.loops.keyframe_spacing_m = f64::NAN),
         ),
-        ("negative confirmation", with(&|c| c.loops.confirm_m = -1.0)),
+        (
+            "negative agreement tolerance",
+            with(&|c| c.loops.revisit.rival_apart_m = -1.0),
+        ),
     ] {
         let err = config.expect_err(case);
         assert!(

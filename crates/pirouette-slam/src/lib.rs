@@ -36,6 +36,7 @@ pub mod laser;
 pub mod localise;
 pub mod mapping;
 pub mod pipeline;
+pub mod revisit;
 
 /// The sensor whose input a path holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -79,6 +79,15 @@ impl PipelineConfig {
                 format!("far reach {} is not a factor of at least 1", self.map.far_reach),
             ));
         }
+        if !self.map.revisit.is_valid() {
+            return Err(SlamError::settings(
+                "pipeline",
+                format!(
+                    "the revisit test needs a matched share in [0, 1], a rival gap of 0 or more and positive tolerances: {:?}",
+                    self.map.revisit
+                ),
+            ));
+        }
         pirouette_grid::OccupancyGrid::new(self.map.grid.clone())?;
         Ok(())
     }

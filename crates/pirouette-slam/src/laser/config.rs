@@ -5,6 +5,7 @@ use pirouette_grid::{GridConfig, OccupancyGrid};
 use pirouette_register::RegisterConfig;
 
 use crate::error::{Result, SlamError};
+use crate::revisit::RevisitTest;
 
 /// How far raw odometry may stray, one standard deviation.
 #[derive(Debug, Clone, PartialEq)]
@@ -140,13 +141,10 @@ pub struct LoopConfig {
     /// At most this many candidates per search (the nearest, each at
     /// least `min_separation_m` along the path from the others).
     pub max_candidates: usize,
-    /// A match counts when at least this share of the scan's endpoints
-    /// lie on the candidate's map ...
-    pub min_matched_share: f64,
-    /// ... and no rival pose scores within this many nats of the best (a
-    /// rival: a peak farther from the best than `confirm_m` or
-    /// `confirm_rad`, the tolerance within which two matches agree).
-    pub min_rival_gap_ln: f64,
+    /// When a scan's match on a candidate's map is a revisit (the test
+    /// camera runs use too). Its rival tolerances are also how far two
+    /// matches may differ and still agree (see `index_sigma_m`).
+    pub revisit: RevisitTest,
     /// Where no keyframe lies near the estimate and the estimate may be
     /// lost (a step since the last loop closed was not registered, or the
     /// path since then is long enough for drift to exceed `max_radius_m`),
@@ -158,12 +156,9 @@ pub struct LoopConfig {
     pub max_profile_rms_m: f64,
     /// ... each searched within ±3 of this σ of its position, metres; a
     /// match counts once the next search's match (at most two searches
-    /// on) moves the estimate the same way ...
+    /// on) moves the estimate the same way (within the revisit test's
+    /// rival tolerances).
     pub index_sigma_m: f64,
-    /// ... within this distance, metres ...
-    pub confirm_m: f64,
-    /// ... and within this heading, radians.
-    pub confirm_rad: f64,
 }
 
 impl Default for LoopConfig {
@@ -188,13 +183,10 @@ impl Default for LoopConfig {
             anchor_scans: 10,
             keyframe_spacing_m: 0.5,
             max_candidates: 2,
-            min_matched_share: 0.6,
-            min_rival_gap_ln: 10.0,
+            revisit: RevisitTest::default(),
             index_candidates: 2,
             max_profile_rms_m: 1.0,
             index_sigma_m: 0.5,
-            confirm_m: 0.3,
-            confirm_rad: 5f64.to_radians(),
         }
     }
 }
@@ -302,10 +294,12 @@ pub fn check_config(config: &LaserConfig) -> Result<()> {
         l.keyframe_spacing_m,
         l.max_profile_rms_m,
         l.index_sigma_m,
-        l.confirm_m,
-        l.confirm_rad,
     ];
-    if !(spreads.into_iter().all(positive) && l.radius_per_m.is_finite() && l.radius_per_m >= 0.0) {
+    if !(spreads.into_iter().all(positive)
+        && l.radius_per_m.is_finite()
+        && l.radius_per_m >= 0.0
+        && l.revisit.is_valid())
+    {
         return Err(SlamError::settings(
             "laser",
             format!("loop closure's distances, spreads and tolerances must be positive: {l:?}"),

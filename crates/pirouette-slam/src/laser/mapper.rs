@@ -187,7 +187,8 @@ impl<'c> Mapper<'c> {
     /// prior's normalised log density there). A motion that breaks the
     /// robot's course (see [`BlindMotion::keeps_course`]) is taken only
     /// where it beats every trusted one that keeps it by
-    /// [`LoopConfig::min_rival_gap_ln`]: in a corridor, a half turn
+    /// the revisit test's rival gap
+    /// ([`RevisitTest::min_rival_gap_ln`](crate::revisit::RevisitTest::min_rival_gap_ln)): in a corridor, a half turn
     /// explains a scan about as well as a step on, and a robot keeps its
     /// course far more often than it turns round. None trusted, the first
     /// prior's answer.
@@ -216,7 +217,9 @@ impl<'c> Mapper<'c> {
                 .max_by(|a, b| a.0.total_cmp(&b.0))
         };
         let chosen = match (most(false), most(true)) {
-            (Some(best), Some(course)) if best.0 - course.0 < config.loops.min_rival_gap_ln => Some(course),
+            (Some(best), Some(course)) if best.0 - course.0 < config.loops.revisit.min_rival_gap_ln => {
+                Some(course)
+            }
             (best, _) => best,
         };
         match (chosen, untrusted) {

@@ -9,7 +9,7 @@ use crate::error::Result;
 use pirouette_geom::{Point2, Pose2};
 use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, QueryConfig, SignatureConfig};
 use pirouette_profile::Rop;
-use pirouette_register::{register, LikelihoodField, PosePrior, RegisterConfig, Registration};
+use pirouette_register::{LikelihoodField, PosePrior, Registration};
 use std::f64::consts::{PI, TAU};
 
 /// Bins of a 360° view ([`view`]): 1° each, as the place index samples.
@@ -224,7 +224,7 @@ impl Keyframes {
             let (a, b) = (correction(p) * at, correction(&found) * at);
             let shift = a.translation().distance(b.translation());
             let turn = pirouette_geom::wrap_angle(a.theta - b.theta).abs();
-            recent && shift <= c.confirm_m && turn <= c.confirm_rad
+            recent && shift <= c.revisit.rival_apart_m && turn <= c.revisit.rival_apart_rad
         });
         match self.pending.take() {
             Some(p) if agree => vec![p, found],
@@ -268,8 +268,8 @@ impl Keyframes {
     }
 
     /// Registers `scan` on keyframe `i`'s map from `prior` (searched
-    /// within its ±3σ): the registration where it is a match (trusted,
-    /// enough endpoints on the map, no rival near in score).
+    /// within its ±3σ): the registration where it is a revisit (see
+    /// [`crate::revisit`]).
     fn verify(
         &mut self,
         config: &LaserConfig,
@@ -288,18 +288,8 @@ impl Keyframes {
             .map(|p| track.poses[f.scan].transform_point(*p))
             .collect();
         let field = LikelihoodField::from_points(&map, config.field_resolution_m, r.sigma_m, r.epsilon);
-        // A rival is another answer where it lies farther from the best
-        // than two matches that agree (see `confirm`).
-        let reg_config = RegisterConfig {
-            max_window_m: 3.0 * prior.sigma_forward_m.max(prior.sigma_left_m),
-            rival_apart_m: c.confirm_m,
-            rival_apart_rad: c.confirm_rad,
-            ..r.clone()
-        };
-        let reg = register(&field, scan, prior, &reg_config)?;
-        let share = reg.matched as f64 / reg.points.max(1) as f64;
-        let rival_far = reg.rival.is_none_or(|r| r.below_best_ln >= c.min_rival_gap_ln);
-        Ok((reg.accepted && share >= c.min_matched_share && rival_far).then_some(reg))
+        let window_m = 3.0 * prior.sigma_forward_m.max(prior.sigma_left_m);
+        c.revisit.register(&field, scan, prior, window_m, r)
     }
 }
 

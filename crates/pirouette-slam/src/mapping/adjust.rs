@@ -125,8 +125,22 @@ fn sweep_edges(
                 sigma_left_m: shift,
                 sigma_theta_rad: config.sweep.commanded_sigma_rad,
             };
-            let reg = register(&own[i].0, &own[j].1, &prior, &config.register)?;
-            Ok(reg.accepted.then(|| graph::Edge {
+            // A revisit out of reach is an edge only where it passes the
+            // test of a true revisit; a pair within reach where its match
+            // is trusted.
+            let reg = match recognised {
+                Some(_) => config.revisit.register(
+                    &own[i].0,
+                    &own[j].1,
+                    &prior,
+                    config.register.max_window_m,
+                    &config.register,
+                )?,
+                None => {
+                    Some(register(&own[i].0, &own[j].1, &prior, &config.register)?).filter(|r| r.accepted)
+                }
+            };
+            Ok(reg.map(|reg| graph::Edge {
                 i,
                 j,
                 z: reg.pose,

@@ -5,6 +5,7 @@ use pirouette_profile::sweep::SweepConfig;
 use pirouette_register::{MotionNoise, RegisterConfig};
 
 use crate::localise::LocaliseConfig;
+use crate::revisit::RevisitTest;
 
 /// Settings of mapping.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,6 +33,9 @@ pub struct MapConfig {
     /// edges of the joint adjustment ([`revisits`](super::revisits)); `None`: not looked
     /// for.
     pub revisits: Option<LocaliseConfig>,
+    /// When a recognised revisit's match, beyond the reach of the pairwise
+    /// matching, becomes a loop edge (the test laser logs use too).
+    pub revisit: RevisitTest,
 }
 
 impl MapConfig {
@@ -69,6 +73,7 @@ impl Default for MapConfig {
             far_reach: 2.0,
             turn_error_frac: 0.1,
             revisits: Some(LocaliseConfig::default()),
+            revisit: RevisitTest::default(),
         }
     }
 }
