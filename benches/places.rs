@@ -125,6 +125,7 @@ fn build(c: &mut Criterion) {
                     truth: None,
                     profile: None,
                     map_pose: None,
+                    look_alike: None,
                 };
                 index
                     .insert(&signature, SYNTHETIC_LIMIT_M, meta)

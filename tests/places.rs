@@ -97,7 +97,7 @@ fn rendered_twin_is_localised_against_the_first_render() {
     let info: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(info["places"].as_u64().unwrap() >= 5, "{info}");
     assert!(info["bytes_per_place"].as_u64().unwrap() <= 256, "{info}");
-    assert_eq!(info["format"].as_u64(), Some(2));
+    assert_eq!(info["format"].as_u64(), Some(3));
     assert_eq!(
         info["file_bytes"].as_u64(),
         Some(std::fs::metadata(&index).unwrap().len())
@@ -155,9 +155,9 @@ fn bad_indexes_and_queries_are_refused_naming_the_file() {
     let p = write("newer.idx", &newer);
     refused(&["places", "info", &p], "newer.idx", "newer");
 
-    // Format 1 held no map poses of its places.
+    // Format 2 held no look-alikes of its places.
     let mut older = bytes.clone();
-    older[8..12].copy_from_slice(&1u32.to_le_bytes());
+    older[8..12].copy_from_slice(&2u32.to_le_bytes());
     let p = write("older.idx", &older);
     refused(&["places", "info", &p], "older.idx", "build it again");
 

@@ -175,7 +175,7 @@ fn time_places(
     notes: &mut Vec<String>,
 ) -> Result<usize> {
     let mut index = PlaceIndex::new(SignatureConfig::default())?;
-    file_sweeps(&mut index, ds, &swept.sweeps, None)?;
+    file_sweeps(&mut index, ds, &swept.sweeps, None, &Default::default())?;
     let queries: Vec<_> = swept
         .sweeps
         .iter()

@@ -101,8 +101,13 @@ pub fn build(a: PlacesBuildArgs) -> Result<()> {
                 )
             })
             .ok();
-        let poses = run.as_ref().map(|r| r.frame_poses.as_slice());
-        let (filed, left_out) = file_sweeps(&mut index, &ds, &swept.sweeps, poses)?;
+        let (filed, left_out) = file_sweeps(
+            &mut index,
+            &ds,
+            &swept.sweeps,
+            run.as_ref(),
+            &LocaliseConfig::default(),
+        )?;
         eprintln!("{}: {filed} places", ds.manifest.name);
         if !left_out.is_empty() {
             eprintln!(

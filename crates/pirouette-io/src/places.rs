@@ -19,12 +19,12 @@ use std::path::Path;
 pub const PLACE_INDEX_MAGIC: &[u8; 8] = b"PIRPLACE";
 
 /// The format version written, and the newest read.
-pub const PLACE_INDEX_FORMAT: u32 = 2;
+pub const PLACE_INDEX_FORMAT: u32 = 3;
 
-/// The oldest format read: format 1 held no map poses of its places, and
-/// a query cannot tell a place's look-alike from the place filed twice
-/// without them.
-pub const OLDEST_PLACE_INDEX_FORMAT: u32 = 2;
+/// The oldest format read: format 1 held no map poses of its places (a
+/// query cannot tell a place's look-alike from the place filed twice
+/// without them), format 2 no look-alikes of a place in its own map.
+pub const OLDEST_PLACE_INDEX_FORMAT: u32 = 3;
 
 /// Header bytes before the payload.
 pub const PLACE_INDEX_HEADER_BYTES: usize = 24;
@@ -116,7 +116,7 @@ fn parse_header(
     if format < OLDEST_PLACE_INDEX_FORMAT {
         return Err(IoError::invalid(
             path,
-            format!("place index format {format} holds no map poses of its places, which queries need to tell look-alikes apart: build it again with `pirouette places build`"),
+            format!("place index format {format} holds no map poses or look-alikes of its places, which queries need to tell look-alikes apart: build it again with `pirouette places build`"),
         ));
     }
     let mut len = [0u8; 8];
@@ -170,9 +170,11 @@ mod tests {
         let mut newer = good.clone();
         newer[8..12].copy_from_slice(&(PLACE_INDEX_FORMAT + 1).to_le_bytes());
         refused(&newer, "newer than this build reads");
-        let mut older = good.clone();
-        older[8..12].copy_from_slice(&1u32.to_le_bytes());
-        refused(&older, "build it again");
+        for format in 1..OLDEST_PLACE_INDEX_FORMAT {
+            let mut older = good.clone();
+            older[8..12].copy_from_slice(&format.to_le_bytes());
+            refused(&older, "build it again");
+        }
         let mut other = good.clone();
         other[0] = b'X';
         refused(&other, "not a place index");

@@ -27,6 +27,10 @@ pub struct PlaceMeta {
     /// matches to places of one dataset agree when they put the query
     /// at one pose of that map.
     pub map_pose: Option<[f64; 3]>,
+    /// Where else in its dataset's map the place's view fits about as
+    /// well, in the place's own frame `(x, y, θ)` (metres, radians): a
+    /// query matched to the place may stand there instead.
+    pub look_alike: Option<[f64; 3]>,
 }
 
 /// Everything an index holds, as saved: the signatures in flat arrays

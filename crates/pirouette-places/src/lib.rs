@@ -30,7 +30,7 @@
 //! let mut index = PlaceIndex::new(SignatureConfig::default())?;
 //! let signature = index.transforms().signature(&sweep(0.0))?;
 //! let dataset = index.dataset_id("room");
-//! index.insert(&signature, 2.0, PlaceMeta { dataset, sweep: 0, truth: None, profile: None, map_pose: None })?;
+//! index.insert(&signature, 2.0, PlaceMeta { dataset, sweep: 0, truth: None, profile: None, map_pose: None, look_alike: None })?;
 //! // The same spot, the robot turned 40° to the left.
 //! let query = index.transforms().signature(&sweep(40f64.to_radians()))?;
 //! let best = &index.query(&query, &QueryConfig::default())[0];

@@ -76,6 +76,7 @@ pub fn random_index(places: usize, seed: u64) -> Result<PlaceIndex, PlacesError>
             truth: None,
             profile: None,
             map_pose: None,
+            look_alike: None,
         };
         index.insert(&signature, SYNTHETIC_LIMIT_M, meta)?;
     }

@@ -140,6 +140,7 @@ fn a_stored_place_seen_again_turned_is_found_first() {
         truth: None,
         profile: Some(StoredProfile::from_rop(&rop)),
         map_pose: None,
+        look_alike: None,
     };
     let id = index.insert(&s, synthetic::SYNTHETIC_LIMIT_M, meta).unwrap();
     // The same view turned by 50 bins (50°).
@@ -180,6 +181,7 @@ fn signatures_of_other_settings_or_range_limits_are_refused() {
         truth: None,
         profile: None,
         map_pose: None,
+        look_alike: None,
     };
     index.insert(&s, 2.0, meta.clone()).unwrap();
     assert!(matches!(

@@ -11,8 +11,11 @@
 
 use crate::error::{Result, SlamError};
 use crate::frame::DatasetSweep;
+use crate::mapping::MapRun;
+use crate::revisit::RevisitTest;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::{Point2, Pose2};
+use pirouette_grid::OccupancyGrid;
 use pirouette_io::Dataset;
 use pirouette_places::{
     relative_chroma, Candidate, PlaceIndex, PlaceMeta, PlacesError, QueryConfig, Signature, StoredProfile,
@@ -54,6 +57,10 @@ pub struct LocaliseConfig {
     /// headings all round the circle (a view a decimetre or more from the
     /// stored spot can line up best at a wrong rotation of its profile).
     pub fallback_places: usize,
+    /// When a place's view fits elsewhere in its dataset's map about as
+    /// well as where it was taken (see [`look_alike`]): searched when the
+    /// place is filed, with the registration above.
+    pub look_alike: RevisitTest,
 }
 
 impl Default for LocaliseConfig {
@@ -65,7 +72,8 @@ impl Default for LocaliseConfig {
     /// any rival (matches more than 30 cm or 10° apart are two answers:
     /// twice the position prior's σ and its heading's); failing that, the
     /// 3 first places tried from every 4σ of heading (20°) round the
-    /// circle.
+    /// circle; a place's look-alike a rival within 10 nats of its own pose
+    /// and as far from it as two answers are.
     fn default() -> Self {
         Self {
             query: QueryConfig::default(),
@@ -79,6 +87,11 @@ impl Default for LocaliseConfig {
             same_answer_m: 0.3,
             same_answer_rad: 10f64.to_radians(),
             fallback_places: 3,
+            look_alike: RevisitTest {
+                rival_apart_m: 0.3,
+                rival_apart_rad: 10f64.to_radians(),
+                ..RevisitTest::default()
+            },
         }
     }
 }
@@ -136,7 +149,9 @@ pub struct Answer {
     /// The best rival: the best-scoring match that puts the query
     /// elsewhere (see [`LocaliseConfig::same_answer_m`]), or at a place
     /// whose view the best's does not explain where the index cannot
-    /// tell. An ambiguous answer lists it beside the best.
+    /// tell; before those, the best moved to its place's look-alike
+    /// ([`PlaceMeta::look_alike`], scored as the best). An ambiguous
+    /// answer lists it beside the best.
     pub rival: Option<PlaceMatch>,
     /// Candidates the index returned.
     pub candidates: usize,
@@ -150,15 +165,16 @@ impl Answer {
 }
 
 /// Files the sweeps of a dataset's run in the index, as places of the
-/// dataset, each with its first frame's pose in the run's map where
-/// `frame_poses` (every frame's, in capture order) is given. A sweep that
-/// saw too little of the circle is not filed; returns how many were filed
-/// and the ids of those left out.
+/// dataset. Where the run's `map` is given, each place keeps its first
+/// frame's pose in that map and its look-alike there ([`look_alike`],
+/// searched with `config`). A sweep that saw too little of the circle is
+/// not filed; returns how many were filed and the ids of those left out.
 pub fn file_sweeps(
     index: &mut PlaceIndex,
     ds: &Dataset,
     sweeps: &[DatasetSweep],
-    frame_poses: Option<&[Pose2]>,
+    map: Option<&MapRun>,
+    config: &LocaliseConfig,
 ) -> Result<(usize, Vec<u32>)> {
     let name = &ds.manifest.name;
     let dataset = index.dataset_id(name);
@@ -174,6 +190,7 @@ pub fn file_sweeps(
             }
             Err(e) => return Err(SlamError::from(e).at(at(s.id))),
         };
+        let map_pose = map.and_then(|m| m.frame_poses.get(s.frames[0])).copied();
         let truth = ds.manifest.frames[s.frames[0]]
             .truth
             .map(|t| [t.x, t.y, t.theta_deg.to_radians()]);
@@ -182,8 +199,10 @@ pub fn file_sweeps(
             sweep: s.id,
             truth,
             profile: Some(StoredProfile::from_rop(&s.sweep.rop)),
-            map_pose: frame_poses
-                .and_then(|poses| poses.get(s.frames[0]))
+            map_pose: map_pose.map(|p| [p.x, p.y, p.theta]),
+            look_alike: map
+                .zip(map_pose)
+                .and_then(|(map, at)| look_alike(&s.sweep.rop, &map.grid, &at, config))
                 .map(|p| [p.x, p.y, p.theta]),
         };
         index
@@ -270,7 +289,15 @@ pub fn localise_signature(
             }
         }
     });
-    let margin = best.score - rival.map_or(0.0, |r| r.0.score);
+    // Where the best place's view fits elsewhere in its map about as
+    // well, the query may stand there, seeing the same: that rival scores
+    // as the best.
+    let look_alike = meta(best.place).and_then(|m| m.look_alike).map(|l| PlaceMatch {
+        pose: Pose2::new(l[0], l[1], l[2]) * best.pose,
+        ..*best
+    });
+    let rival = look_alike.or(rival.map(|r| r.0));
+    let margin = best.score - rival.map_or(0.0, |r| r.score);
     let verdict = if best.score < config.min_score {
         Verdict::Unknown
     } else if margin < config.min_margin {
@@ -282,7 +309,7 @@ pub fn localise_signature(
         verdict,
         best: Some(*best),
         margin,
-        rival: rival.map(|r| r.0),
+        rival,
         candidates: candidates.len(),
     }
 }
@@ -456,6 +483,75 @@ fn refine(
     })
 }
 
+/// A place's look-alike: where else in its dataset's map its view fits
+/// about as well as where it was taken. The view (the stored profile's
+/// points) is registered on the whole map at every heading, as queries
+/// are on a place (`config`'s registration and field). Where the
+/// search's best lies at the place's map pose `at` (within
+/// [`LocaliseConfig::look_alike`]'s tolerances), the look-alike is the
+/// rival peak scoring within its gap; where the best lies elsewhere, the view fits there better
+/// than where it was taken, and the best is the look-alike. Returned in
+/// the place's own frame; `None` where the view fits its own pose alone,
+/// or pins no pose (too few points, or spread over the map).
+pub fn look_alike(rop: &Rop, map: &OccupancyGrid, at: &Pose2, config: &LocaliseConfig) -> Option<Pose2> {
+    let points: Vec<Point2> = (0..rop.len())
+        .filter_map(|i| {
+            Some(Point2::from_polar(
+                f64::from(rop.reliable(i)?),
+                rop.bin_centre_rad(i),
+            ))
+        })
+        .collect();
+    let s = map.resolution_m();
+    let ((lo_x, lo_y), (hi_x, hi_y)) = map.known_extent()?;
+    let walls: Vec<Point2> = map
+        .cells_above(WALL_PROBABILITY)
+        .into_iter()
+        .map(|(i, j)| Point2::new((i as f64 + 0.5) * s, (j as f64 + 0.5) * s))
+        .collect();
+    let (lo, hi) = (
+        Point2::new(lo_x as f64 * s, lo_y as f64 * s),
+        Point2::new(hi_x as f64 * s, hi_y as f64 * s),
+    );
+    let test = &config.look_alike;
+    let register_config = RegisterConfig {
+        max_window_m: 0.5 * (hi.x - lo.x).max(hi.y - lo.y) + s,
+        rival_apart_m: test.rival_apart_m,
+        rival_apart_rad: test.rival_apart_rad,
+        ..config.register.clone()
+    };
+    let field = LikelihoodField::from_points(
+        &walls,
+        config.field_resolution_m,
+        register_config.sigma_m,
+        register_config.epsilon,
+    );
+    // Flat over the map and the circle.
+    let prior = PosePrior {
+        mean: Pose2::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), at.theta),
+        sigma_forward_m: 1e3,
+        sigma_left_m: 1e3,
+        sigma_theta_rad: 1e3,
+    };
+    let reg = register(&field, &points, &prior, &register_config).ok()?;
+    if !reg.accepted {
+        return None;
+    }
+    let apart = at.between(&reg.pose);
+    let at_best =
+        apart.translation().norm() <= test.rival_apart_m && apart.theta.abs() <= test.rival_apart_rad;
+    if !at_best {
+        return Some(apart);
+    }
+    reg.rival
+        .filter(|r| r.below_best_ln < test.min_rival_gap_ln)
+        .map(|r| at.between(&r.pose))
+}
+
+/// Map cells at least this likely occupied are the walls a look-alike is
+/// searched among (the grid's free threshold's counterpart).
+const WALL_PROBABILITY: f64 = 0.6;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -487,6 +583,7 @@ mod tests {
             truth: None,
             profile: Some(StoredProfile::from_rop(stored)),
             map_pose: Some([0.0, 0.0, 0.0]),
+            look_alike: None,
         };
         index.insert(&signature, stored.max_range_m, meta).unwrap();
         let query_signature = index.transforms().signature(query).unwrap();
@@ -515,5 +612,56 @@ mod tests {
             pose.translation().norm() < 0.02 && pose.theta.abs() < 1f64.to_radians(),
             "{b:?}"
         );
+    }
+
+    /// The view from `at` (1° bins, 4 m soft limit) of `walls`.
+    fn view_of(walls: &pirouette_sim::Walls, at: &Pose2) -> Rop {
+        let mut rop = Rop::empty(-PI, TAU / 360.0, 360, 4.0);
+        for i in 0..360 {
+            let (s, c) = (rop.bin_centre_rad(i) + at.theta).sin_cos();
+            if let Some(r) = walls.cast([at.x, at.y], [c, s]) {
+                rop.range_m[i] = r as f32;
+            }
+        }
+        rop
+    }
+
+    /// The map of `walls` seen from a lattice of spots 0.5 m apart.
+    fn map_of(walls: &pirouette_sim::Walls, w: f64, h: f64) -> OccupancyGrid {
+        let config = pirouette_grid::GridConfig {
+            resolution_m: 0.02,
+            ..Default::default()
+        };
+        let mut grid = OccupancyGrid::new(config).unwrap();
+        for i in 1..(2.0 * w) as usize {
+            for j in 1..(2.0 * h) as usize {
+                let at = Pose2::new(0.5 * i as f64, 0.5 * j as f64, 0.3 * (i + j) as f64);
+                grid.insert_profile(&at, &view_of(walls, &at), 0.0);
+            }
+        }
+        grid
+    }
+
+    /// In a bare rectangular room a spot looks like its image half round
+    /// about the centre: that is its look-alike, in its own frame. A box
+    /// in one corner tells the two apart.
+    #[test]
+    fn a_place_in_a_symmetric_room_has_its_image_as_look_alike() {
+        let mut walls = pirouette_sim::Walls::default();
+        walls.rectangle(0.0, 0.0, 4.0, 3.0);
+        let at = Pose2::new(1.2, 1.0, 0.4);
+        let image = Pose2::new(2.8, 2.0, 0.4 + PI);
+        let config = LocaliseConfig::default();
+        let found =
+            look_alike(&view_of(&walls, &at), &map_of(&walls, 4.0, 3.0), &at, &config).expect("a look-alike");
+        let off = found.between(&at.between(&image));
+        assert!(
+            off.translation().norm() < 0.1 && off.theta.abs() < 2f64.to_radians(),
+            "{found:?}"
+        );
+
+        walls.rectangle(3.2, 2.2, 4.0, 3.0);
+        let found = look_alike(&view_of(&walls, &at), &map_of(&walls, 4.0, 3.0), &at, &config);
+        assert_eq!(found, None);
     }
 }

@@ -116,6 +116,7 @@ impl Keyframes {
                 truth: None,
                 profile: None,
                 map_pose: None,
+                look_alike: None,
             };
             self.index.insert(&signature, config.max_range_m, meta)?;
             self.frame_of_place.push(self.frames.len());

@@ -82,6 +82,7 @@ pub(super) fn recognise(
                 truth: None,
                 profile: Some(StoredProfile::from_rop(prev)),
                 map_pose: None,
+                look_alike: None,
             };
             if index.insert(&sig, prev.max_range_m, meta).is_ok() {
                 sweep_of.push(p);
