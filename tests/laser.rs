@@ -395,6 +395,25 @@ fn map_and_eval_laser_write_and_score_a_log() {
         dead > 0.2,
         "dead reckoning ATE {dead} m: the odometry is too good to show anything"
     );
+    // With odometry every step is right and none is marked.
+    assert_eq!((report.wrong_steps, report.marked), (0, 0), "{report:?}");
+
+    // A pose moved 0.5 m makes the steps to it and from it wrong; marked
+    // ambiguous, the first is wrong with a warning, the second without.
+    let mut records: Vec<serde_json::Value> = poses.clone();
+    records[5]["x"] = (records[5]["x"].as_f64().expect("x") + 0.5).into();
+    records[5]["trust"] = "ambiguous".into();
+    std::fs::write(
+        out.join("poses.json"),
+        serde_json::to_string(&records).expect("JSON"),
+    )
+    .expect("write");
+    let edited = evaluate_laser(&log, &out, &[1.0]).expect("scored");
+    assert_eq!(
+        (edited.wrong_steps, edited.wrong_unmarked, edited.marked),
+        (2, 1, 1),
+        "{edited:?}"
+    );
 }
 
 #[test]

@@ -92,7 +92,18 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
         r.solves
     )?;
     if unregistered > 0 {
-        outln!("{unregistered} scans matched too little of the map and kept their odometry")?;
+        outln!("{unregistered} scans matched too little of the map and were placed by their motion prior alone (odometry where the log has it)")?;
+    }
+    let ambiguous: Vec<usize> = scans.iter().filter(|s| s.ambiguous).map(|s| s.scan).collect();
+    if let Some(first) = ambiguous.first() {
+        outln!(
+            "{} of {} steps ambiguous, the first at scan {first}: another pose {:.0} cm or {:.0}° away explained the scan within {:.0} nats, and the map may be wrong from there (poses.json marks them)",
+            ambiguous.len(),
+            scans.len().saturating_sub(1),
+            config.loops.revisit.rival_apart_m * 100.0,
+            config.loops.revisit.rival_apart_rad.to_degrees(),
+            config.loops.revisit.min_rival_gap_ln
+        )?;
     }
     // Which odometry convention the log holds, step by step.
     let mut sources: Vec<(OdometrySource, usize)> = Vec::new();
@@ -144,7 +155,7 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let records: Vec<PoseRecord> = r
         .scans
         .iter()
-        .map(|s| PoseRecord::scan(s.scan, s.t, &s.pose))
+        .map(|s| PoseRecord::scan(s.scan, s.t, &s.pose).with_trust(s.trust()))
         .collect();
     if records.is_empty() {
         bail!("{}: no scan was mapped", log.display());
@@ -210,6 +221,15 @@ pub fn eval_laser(a: EvalLaserArgs) -> Result<()> {
     };
     show("mapped", &r.estimated)?;
     show("dead reckoning", &r.dead_reckoning)?;
+    outln!(
+        "{} of {} steps off the recorded step by more than {:.0} cm or {:.0}°, {} of them unmarked; {} marked ambiguous or unmatched",
+        r.wrong_steps,
+        r.steps,
+        pirouette::eval::laser::WRONG_STEP_M * 100.0,
+        pirouette::eval::laser::WRONG_STEP_DEG,
+        r.wrong_unmarked,
+        r.marked
+    )?;
     Ok(())
 }
 

@@ -48,7 +48,22 @@ pub struct LaserReport {
     pub estimated: LaserScores,
     /// Raw odometry alone (steps without odometry taken as standing still).
     pub dead_reckoning: LaserScores,
+    /// Steps between consecutive poses whose estimate is off the recorded
+    /// step by more than [`WRONG_STEP_M`] or [`WRONG_STEP_DEG`] ...
+    pub wrong_steps: usize,
+    /// ... and of those, the ones `poses.json` does not mark ambiguous or
+    /// unmatched: wrong without warning.
+    pub wrong_unmarked: usize,
+    /// Steps marked ambiguous or unmatched.
+    pub marked: usize,
+    /// Steps compared (poses less one).
+    pub steps: usize,
 }
+
+/// A step off the recorded one by more than this is wrong, metres ...
+pub const WRONG_STEP_M: f64 = 0.2;
+/// ... or by more than this, degrees.
+pub const WRONG_STEP_DEG: f64 = 3.0;
 
 /// The relative errors of `estimated` against `reference` (paired) for
 /// scan pairs `distance_m` apart along the reference's path.
@@ -187,6 +202,17 @@ pub fn evaluate_laser(log: &Path, dir: &Path, distances_m: &[f64]) -> Result<Las
     if estimated.len() < 2 {
         bail!("{}: fewer than two poses to compare", poses_path.display());
     }
+    let (mut wrong_steps, mut wrong_unmarked, mut marked) = (0, 0, 0);
+    for k in 1..estimated.len() {
+        let e = estimated[k - 1].between(&estimated[k]);
+        let r = reference[k - 1].between(&reference[k]);
+        let off = r.between(&e);
+        let wrong = off.translation().norm() > WRONG_STEP_M || off.theta_deg().abs() > WRONG_STEP_DEG;
+        let mark = records[k].trust.is_some();
+        wrong_steps += usize::from(wrong);
+        wrong_unmarked += usize::from(wrong && !mark);
+        marked += usize::from(mark);
+    }
     Ok(LaserReport {
         log: log
             .file_name()
@@ -194,6 +220,10 @@ pub fn evaluate_laser(log: &Path, dir: &Path, distances_m: &[f64]) -> Result<Las
         scans: estimated.len(),
         estimated: scores(&estimated, &reference, distances_m),
         dead_reckoning: scores(&reckoned, &reference, distances_m),
+        wrong_steps,
+        wrong_unmarked,
+        marked,
+        steps: estimated.len() - 1,
     })
 }
 

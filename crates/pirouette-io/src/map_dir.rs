@@ -41,6 +41,11 @@ pub struct PoseRecord {
     pub y: f64,
     /// Heading, degrees counter-clockwise.
     pub theta_deg: f64,
+    /// Where the pose is not one trusted match: `"ambiguous"` (another
+    /// pose apart explained the scan nearly as well) or `"unmatched"`
+    /// (placed by the motion prior alone). Absent where trusted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trust: Option<String>,
 }
 
 impl PoseRecord {
@@ -55,6 +60,7 @@ impl PoseRecord {
             x: micro(pose.x),
             y: micro(pose.y),
             theta_deg: micro(pose.theta_deg()),
+            trust: None,
         }
     }
 
@@ -66,6 +72,15 @@ impl PoseRecord {
             scan: Some(scan),
             t: Some(t),
             ..Self::frame("", pose)
+        }
+    }
+
+    /// The record, said not to be one trusted match (see
+    /// [`PoseRecord::trust`]).
+    pub fn with_trust(self, trust: Option<&str>) -> Self {
+        Self {
+            trust: trust.map(str::to_owned),
+            ..self
         }
     }
 

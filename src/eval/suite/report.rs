@@ -34,6 +34,7 @@ const FIGURES: &[FigureInfo] = &[
     fig("rpe_1m_m", true, 0.001),
     fig("rpe_1m_deg", true, 0.02),
     fig("rpe_1m_vs_odometry", true, 0.05),
+    fig("wrong_unmarked_share", true, 0.005),
     fig("relations_trans_m", true, 0.0005),
     fig("relations_rot_deg", true, 0.01),
     fig("relations_unmatched", true, 0.0),

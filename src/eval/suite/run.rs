@@ -232,6 +232,10 @@ impl Runner {
                             ("rpe_1m_deg", "/estimated/relative/0/rotation_mean_deg"),
                         ],
                     );
+                    // Steps wrong without a mark, as a share of the steps.
+                    if let (Some(w), Some(n)) = (v["wrong_unmarked"].as_f64(), v["steps"].as_f64()) {
+                        f.insert("wrong_unmarked_share".into(), w / n.max(1.0));
+                    }
                 }
             }
             Input::Bag {

@@ -12,7 +12,8 @@ use pirouette_geom::{Point2, Pose2};
 use pirouette_graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig};
 use pirouette_io::LaserScan;
 use pirouette_register::{
-    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterError, Registration,
+    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, RegisterError,
+    Registration,
 };
 
 use crate::error::{Result, SlamError};
@@ -56,6 +57,17 @@ pub(super) struct Mapper<'c> {
     /// The local map's likelihood field while the scans and poses it was
     /// made of stand (a scan registered or a graph solved drops it).
     field: Option<LikelihoodField>,
+}
+
+/// A scan's match against the local map.
+pub(super) struct Matched {
+    /// The scan's thinned endpoints, in its frame.
+    pub points: Vec<Point2>,
+    /// The match.
+    pub registration: Registration,
+    /// Whether two poses apart (beyond the revisit test's tolerances)
+    /// explain the scan within its gap: the one kept may be wrong.
+    pub ambiguous: bool,
 }
 
 /// A skipped scan placed against the registered scan before it.
@@ -119,11 +131,8 @@ impl<'c> Mapper<'c> {
     /// Matches a scan's frame against the local map (the registered scans
     /// before it), from the newest scan's pose moved by the frame's
     /// odometry: its thinned endpoints and the match.
-    pub(super) fn matched(
-        &mut self,
-        frame: &Frame,
-        label: &dyn Fn() -> String,
-    ) -> Result<(Vec<Point2>, Registration)> {
+    /// Whether the match is ambiguous: see [`Matched`].
+    pub(super) fn matched(&mut self, frame: &Frame, label: &dyn Fn() -> String) -> Result<Matched> {
         let config = self.config;
         let points = self.scan_points(frame);
         let last = self.poses.len() - 1;
@@ -140,12 +149,43 @@ impl<'c> Mapper<'c> {
         let step = reg
             .as_ref()
             .ok()
-            .filter(|r| r.accepted)
-            .map(|r| previous.between(&r.pose));
+            .filter(|r| r.0.accepted)
+            .map(|r| previous.between(&r.0.pose));
         self.motion = self.motion.after(step, config);
         self.field = Some(field);
-        let reg = reg.map_err(|e| SlamError::from(e).at(label()))?;
-        Ok((points, reg))
+        let (registration, ambiguous) = reg.map_err(|e| SlamError::from(e).at(label()))?;
+        Ok(Matched {
+            points,
+            registration,
+            ambiguous,
+        })
+    }
+
+    /// The registration settings of a step's match: rivals counted at the
+    /// revisit test's tolerances (a step's rival is a second answer).
+    fn step_register(&self) -> RegisterConfig {
+        let t = &self.config.loops.revisit;
+        RegisterConfig {
+            rival_apart_m: t.rival_apart_m,
+            rival_apart_rad: t.rival_apart_rad,
+            ..self.config.register.clone()
+        }
+    }
+
+    /// Whether a trusted match does not pin one pose: a rival peak within
+    /// the revisit test's gap, or a posterior spread (one σ) beyond its
+    /// tolerances (a corridor's length the scan does not tell, where the
+    /// prior alone placed it).
+    fn has_rival(&self, reg: &Registration) -> bool {
+        let t = &self.config.loops.revisit;
+        let c = &reg.covariance;
+        let spread_m = nalgebra::Matrix2::new(c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)])
+            .symmetric_eigenvalues()
+            .max()
+            .max(0.0)
+            .sqrt();
+        let loose = spread_m > t.rival_apart_m || c[(2, 2)].max(0.0).sqrt() > t.rival_apart_rad;
+        reg.accepted && (loose || reg.rival.is_some_and(|r| r.below_best_ln < t.min_rival_gap_ln))
     }
 
     /// A match from `previous` moved by the step's odometry. A best pose
@@ -161,10 +201,11 @@ impl<'c> Mapper<'c> {
         points: &[Point2],
         previous: &Pose2,
         step: &Pose2,
-    ) -> Result<Registration, RegisterError> {
+    ) -> Result<(Registration, bool), RegisterError> {
         let config = self.config;
+        let register_config = self.step_register();
         let prior = moved_by(previous, step, &config.odometry);
-        let reg = register(field, points, &prior, &config.register)?;
+        let reg = register(field, points, &prior, &register_config)?;
         let cell = config.field_resolution_m;
         if reg.accepted && at_window_edge(&prior, &reg.pose, &config.register, cell) {
             let wide = PosePrior {
@@ -173,12 +214,14 @@ impl<'c> Mapper<'c> {
                 sigma_theta_rad: 3.0 * prior.sigma_theta_rad,
                 ..prior
             };
-            let again = register(field, points, &wide, &config.register)?;
+            let again = register(field, points, &wide, &register_config)?;
             if again.accepted && !at_window_edge(&wide, &again.pose, &config.register, cell) {
-                return Ok(again);
+                let ambiguous = self.has_rival(&again);
+                return Ok((again, ambiguous));
             }
         }
-        Ok(reg)
+        let ambiguous = self.has_rival(&reg);
+        Ok((reg, ambiguous))
     }
 
     /// A match of a step without odometry: one under each of
@@ -191,18 +234,22 @@ impl<'c> Mapper<'c> {
     /// ([`RevisitTest::min_rival_gap_ln`](crate::revisit::RevisitTest::min_rival_gap_ln)): in a corridor, a half turn
     /// explains a scan about as well as a step on, and a robot keeps its
     /// course far more often than it turns round. None trusted, the first
-    /// prior's answer.
+    /// prior's answer. Ambiguous where the match kept has a rival peak, or
+    /// another motion's trusted match lies apart from it (beyond the
+    /// revisit test's tolerances) with a posterior density within the gap
+    /// of its own.
     fn blind(
         &self,
         field: &LikelihoodField,
         points: &[Point2],
         previous: &Pose2,
-    ) -> Result<Registration, RegisterError> {
+    ) -> Result<(Registration, bool), RegisterError> {
         let config = self.config;
+        let register_config = self.step_register();
         let mut trusted: Vec<(f64, BlindMotion, Registration)> = Vec::new();
         let mut untrusted = None;
         for (motion, prior) in blind_priors(previous, &self.motion, config) {
-            let reg = register(field, points, &prior, &config.register)?;
+            let reg = register(field, points, &prior, &register_config)?;
             if reg.accepted {
                 let ln = reg.mean_log_likelihood * reg.points as f64 + prior.ln_density(&reg.pose);
                 trusted.push((ln, motion, reg));
@@ -222,15 +269,27 @@ impl<'c> Mapper<'c> {
             }
             (best, _) => best,
         };
+        let gap = config.loops.revisit.min_rival_gap_ln;
+        let t = &config.loops.revisit;
         match (chosen, untrusted) {
-            (Some(t), _) => Ok(t.2.clone()),
-            (None, Some(reg)) => Ok(reg),
-            (None, None) => register(
-                field,
-                points,
-                &step_prior(previous, None, config),
-                &config.register,
-            ),
+            (Some(c), _) => {
+                let apart = |r: &Registration| {
+                    let d = c.2.pose.between(&r.pose);
+                    d.translation().norm() > t.rival_apart_m || d.theta.abs() > t.rival_apart_rad
+                };
+                let rival = trusted.iter().any(|o| o.0 > c.0 - gap && apart(&o.2));
+                Ok((c.2.clone(), rival || self.has_rival(&c.2)))
+            }
+            (None, Some(reg)) => Ok((reg, false)),
+            (None, None) => Ok((
+                register(
+                    field,
+                    points,
+                    &step_prior(previous, None, config),
+                    &register_config,
+                )?,
+                false,
+            )),
         }
     }
 

@@ -2,7 +2,7 @@
 //! returns.
 
 use super::config::{check_config, LaserConfig};
-use super::mapper::Mapper;
+use super::mapper::{Mapper, Matched};
 use crate::frame::laser_frame;
 use pirouette_geom::Pose2;
 use pirouette_graph::PoseGraph;
@@ -28,6 +28,23 @@ pub struct ScanPose {
     pub odometry: Option<OdometrySource>,
     /// Whether its registration was trusted (else the prior's mean).
     pub registered: bool,
+    /// Whether another pose, apart from the one kept (beyond the revisit
+    /// test's tolerances), explained the scan nearly as well (within its
+    /// gap): a rival peak of the match, or without odometry another
+    /// motion's match. The pose kept may be wrong.
+    pub ambiguous: bool,
+}
+
+impl ScanPose {
+    /// `"unmatched"` or `"ambiguous"` where the pose is not one trusted
+    /// match, else `None`.
+    pub fn trust(&self) -> Option<&'static str> {
+        match (self.registered, self.ambiguous) {
+            (false, _) => Some("unmatched"),
+            (true, true) => Some("ambiguous"),
+            (true, false) => None,
+        }
+    }
 }
 
 /// A mapped log.
@@ -143,18 +160,23 @@ pub fn register_log(
         };
         let frame = laser_frame(&scan, config.max_range_m);
         since = since.zip(frame.odometry()).map(|(a, o)| a * o);
-        let (points, reg) = if k == 0 {
-            (m.scan_points(&frame), None)
+        let (points, reg, ambiguous) = if k == 0 {
+            (m.scan_points(&frame), None, false)
         } else {
-            let (points, reg) = m.matched(&frame, &label)?;
+            let Matched {
+                points,
+                registration: reg,
+                ambiguous,
+            } = m.matched(&frame, &label)?;
             // Matched near the last registered scan: the local map holds
-            // what it sees.
+            // what it sees. An ambiguous match is kept (and marked), not
+            // left out on a move it does not pin.
             let relative = m.poses[k - 1].between(&reg.pose);
-            if reg.accepted && !config.motion_filter.keeps(&relative) {
+            if reg.accepted && !ambiguous && !config.motion_filter.keeps(&relative) {
                 m.skip(&scan, relative);
                 continue;
             }
-            (points, Some(reg))
+            (points, Some(reg), ambiguous)
         };
         let registered = m.take(k, points, reg.as_ref());
         meta.push(ScanPose {
@@ -163,6 +185,7 @@ pub fn register_log(
             pose: Pose2::IDENTITY,
             odometry: since.filter(|_| k > 0).and(scan.odometry_source),
             registered,
+            ambiguous,
         });
         since = Some(Pose2::IDENTITY);
         // Places kept, revisits searched, the graph solved.
