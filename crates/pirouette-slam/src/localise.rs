@@ -616,8 +616,13 @@ mod tests {
 
     /// The view from `at` (1° bins, 4 m soft limit) of `walls`.
     fn view_of(walls: &pirouette_sim::Walls, at: &Pose2) -> Rop {
-        let mut rop = Rop::empty(-PI, TAU / 360.0, 360, 4.0);
-        for i in 0..360 {
+        view_in_bins(walls, at, 360)
+    }
+
+    /// The view from `at` of `walls` in `bins` bins round the circle.
+    fn view_in_bins(walls: &pirouette_sim::Walls, at: &Pose2, bins: usize) -> Rop {
+        let mut rop = Rop::empty(-PI, TAU / bins as f64, bins, 4.0);
+        for i in 0..bins {
             let (s, c) = (rop.bin_centre_rad(i) + at.theta).sin_cos();
             if let Some(r) = walls.cast([at.x, at.y], [c, s]) {
                 rop.range_m[i] = r as f32;
@@ -663,5 +668,31 @@ mod tests {
         walls.rectangle(3.2, 2.2, 4.0, 3.0);
         let found = look_alike(&view_of(&walls, &at), &map_of(&walls, 4.0, 3.0), &at, &config);
         assert_eq!(found, None);
+    }
+
+    /// Profiles are metric: a place filed from 1° bins is found by a
+    /// query of 0.25° bins (another camera's, or another build's), and
+    /// the other way round, at the query's pose.
+    #[test]
+    fn a_query_of_other_bin_widths_than_the_index_is_answered_at_its_pose() {
+        let mut walls = pirouette_sim::Walls::default();
+        walls.rectangle(0.0, 0.0, 4.0, 3.0);
+        walls.rectangle(3.2, 2.2, 4.0, 3.0);
+        walls.rectangle(0.0, 0.0, 0.5, 0.8);
+        let place = Pose2::new(1.5, 1.2, 0.3);
+        let query = Pose2::new(1.65, 1.1, 0.3 + 25f64.to_radians());
+        let truth = place.between(&query);
+        for (stored_bins, query_bins) in [(360, 1440), (1440, 360)] {
+            let a = answer(
+                &view_in_bins(&walls, &place, stored_bins),
+                &view_in_bins(&walls, &query, query_bins),
+            );
+            assert_eq!(a.verdict, Verdict::Known, "{stored_bins} / {query_bins}: {a:?}");
+            let off = truth.between(&a.best.unwrap().pose);
+            assert!(
+                off.translation().norm() < 0.02 && off.theta.abs() < 0.5f64.to_radians(),
+                "{stored_bins} / {query_bins}: {off:?}"
+            );
+        }
     }
 }
