@@ -243,9 +243,7 @@ pub fn run_localise(a: LocaliseArgs) -> Result<()> {
     let (ds, sweeps) = query_sweeps(&index, &a.dataset, &a.sweep)?;
     let answers = answer_all(&index, &ds, &sweeps)?;
     let c = index.contents();
-    if !a.json {
-        outln!("sweep  status      place                   x (m)    y (m)   θ (°)  score  margin")?;
-    }
+    let mut rows = Vec::new();
     for (s, ans) in sweeps.iter().zip(&answers) {
         let name = |m: &pirouette::localise::PlaceMatch| {
             let meta = &c.meta[m.place];
@@ -274,24 +272,29 @@ pub fn run_localise(a: LocaliseArgs) -> Result<()> {
         } else {
             let place = match (named, alike.as_slice()) {
                 (Some((d, sw, _)), _) => format!("{d} #{sw}"),
+                (None, [(d, a, _), (e, b, _)]) if d == e && a == b => format!("{d} #{a} or its look-alike"),
                 (None, [(d, a, _), (e, b, _)]) => format!("{d} #{a} or {e} #{b}"),
                 _ => "-".to_string(),
             };
-            let (x, y, t) = named.map_or((f64::NAN, f64::NAN, f64::NAN), |(_, _, p)| {
-                (p.x, p.y, p.theta.to_degrees())
-            });
-            outln!(
-                "{:>5}  {:<10}  {:<22} {:>6.3}  {:>6.3}  {:>6.1}  {:>5.2}  {:>6.2}",
-                s.id,
-                ans.verdict.as_str(),
-                place,
-                x,
-                y,
-                t,
-                score,
-                ans.margin
-            )?;
+            let pose = named.map_or_else(
+                || format!("{:>6}  {:>6}  {:>6}", "-", "-", "-"),
+                |(_, _, p)| format!("{:>6.3}  {:>6.3}  {:>6.1}", p.x, p.y, p.theta.to_degrees()),
+            );
+            rows.push((s.id, ans.verdict.as_str(), place, pose, score, ans.margin));
         }
+    }
+    let width = rows.iter().map(|r| r.2.chars().count()).max().unwrap_or(0).max(5);
+    if !a.json {
+        outln!(
+            "sweep  status      {:<width$} {:>6}  {:>6}  {:>6}  score  margin",
+            "place",
+            "x (m)",
+            "y (m)",
+            "θ (°)"
+        )?;
+    }
+    for (id, status, place, pose, score, margin) in rows {
+        outln!("{id:>5}  {status:<10}  {place:<width$} {pose}  {score:>5.2}  {margin:>6.2}")?;
     }
     if !a.json {
         outln!(

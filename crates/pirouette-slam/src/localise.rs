@@ -12,7 +12,6 @@
 use crate::error::{Result, SlamError};
 use crate::frame::DatasetSweep;
 use crate::mapping::MapRun;
-use crate::revisit::RevisitTest;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::OccupancyGrid;
@@ -57,10 +56,6 @@ pub struct LocaliseConfig {
     /// headings all round the circle (a view a decimetre or more from the
     /// stored spot can line up best at a wrong rotation of its profile).
     pub fallback_places: usize,
-    /// When a place's view fits elsewhere in its dataset's map about as
-    /// well as where it was taken (see [`look_alike`]): searched when the
-    /// place is filed, with the registration above.
-    pub look_alike: RevisitTest,
 }
 
 impl Default for LocaliseConfig {
@@ -72,8 +67,7 @@ impl Default for LocaliseConfig {
     /// any rival (matches more than 30 cm or 10° apart are two answers:
     /// twice the position prior's σ and its heading's); failing that, the
     /// 3 first places tried from every 4σ of heading (20°) round the
-    /// circle; a place's look-alike a rival within 10 nats of its own pose
-    /// and as far from it as two answers are.
+    /// circle.
     fn default() -> Self {
         Self {
             query: QueryConfig::default(),
@@ -87,11 +81,6 @@ impl Default for LocaliseConfig {
             same_answer_m: 0.3,
             same_answer_rad: 10f64.to_radians(),
             fallback_places: 3,
-            look_alike: RevisitTest {
-                rival_apart_m: 0.3,
-                rival_apart_rad: 10f64.to_radians(),
-                ..RevisitTest::default()
-            },
         }
     }
 }
@@ -485,23 +474,18 @@ fn refine(
 
 /// A place's look-alike: where else in its dataset's map its view fits
 /// about as well as where it was taken. The view (the stored profile's
-/// points) is registered on the whole map at every heading, as queries
-/// are on a place (`config`'s registration and field). Where the
-/// search's best lies at the place's map pose `at` (within
-/// [`LocaliseConfig::look_alike`]'s tolerances), the look-alike is the
-/// rival peak scoring within its gap; where the best lies elsewhere, the view fits there better
-/// than where it was taken, and the best is the look-alike. Returned in
-/// the place's own frame; `None` where the view fits its own pose alone,
-/// or pins no pose (too few points, or spread over the map).
+/// points) is registered on the whole map in each of eight sectors of
+/// heading (on a 5 cm field, then refined with `config`'s registration
+/// and field, as queries are on a place), and each sector's best is
+/// scored as answers are: the share of
+/// the view's points (one per registration cell) within 2σ of a wall of
+/// the map. The look-alike is the best-scoring pose apart from the
+/// place's map pose `at` (two answers: see
+/// [`LocaliseConfig::same_answer_m`]) that scores within [`LocaliseConfig::min_margin`] of the
+/// view at `at`, or better; returned in the place's own frame. `None`
+/// where the view fits its own pose alone, or there is no map or view.
 pub fn look_alike(rop: &Rop, map: &OccupancyGrid, at: &Pose2, config: &LocaliseConfig) -> Option<Pose2> {
-    let points: Vec<Point2> = (0..rop.len())
-        .filter_map(|i| {
-            Some(Point2::from_polar(
-                f64::from(rop.reliable(i)?),
-                rop.bin_centre_rad(i),
-            ))
-        })
-        .collect();
+    let view = View::of(rop, vec![None; rop.len()], config);
     let s = map.resolution_m();
     let ((lo_x, lo_y), (hi_x, hi_y)) = map.known_extent()?;
     let walls: Vec<Point2> = map
@@ -509,44 +493,100 @@ pub fn look_alike(rop: &Rop, map: &OccupancyGrid, at: &Pose2, config: &LocaliseC
         .into_iter()
         .map(|(i, j)| Point2::new((i as f64 + 0.5) * s, (j as f64 + 0.5) * s))
         .collect();
+    if walls.is_empty() || view.thinned.is_empty() {
+        return None;
+    }
     let (lo, hi) = (
         Point2::new(lo_x as f64 * s, lo_y as f64 * s),
         Point2::new(hi_x as f64 * s, hi_y as f64 * s),
     );
-    let test = &config.look_alike;
-    let register_config = RegisterConfig {
-        max_window_m: 0.5 * (hi.x - lo.x).max(hi.y - lo.y) + s,
-        rival_apart_m: test.rival_apart_m,
-        rival_apart_rad: test.rival_apart_rad,
+    // Each sector searched on a coarse field, its best refined on the
+    // fine one. A sector where the view fits nowhere in particular
+    // spreads over many poses: given up early (no look-alike there).
+    let coarse_config = RegisterConfig {
+        sigma_m: LOOK_ALIKE_CELL_M,
+        spacing_m: LOOK_ALIKE_CELL_M,
+        max_window_m: 0.5 * (hi.x - lo.x).max(hi.y - lo.y) + LOOK_ALIKE_CELL_M,
+        max_spread_poses: LOOK_ALIKE_SPREAD_POSES,
         ..config.register.clone()
     };
-    let field = LikelihoodField::from_points(
-        &walls,
-        config.field_resolution_m,
-        register_config.sigma_m,
-        register_config.epsilon,
-    );
-    // Flat over the map and the circle.
-    let prior = PosePrior {
-        mean: Pose2::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), at.theta),
-        sigma_forward_m: 1e3,
-        sigma_left_m: 1e3,
-        sigma_theta_rad: 1e3,
+    let field_of =
+        |cell: f64, sigma: f64| LikelihoodField::from_points(&walls, cell, sigma, config.register.epsilon);
+    let coarse = field_of(LOOK_ALIKE_CELL_M, LOOK_ALIKE_CELL_M);
+    let fine = field_of(config.field_resolution_m, config.register.sigma_m);
+    let coords: Vec<[f64; 2]> = walls.iter().map(|p| [p.x, p.y]).collect();
+    let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&coords);
+    let reach2 = (2.0 * config.register.sigma_m).powi(2);
+    // The share of the view's points on a wall, the view at `pose`.
+    let share = |pose: &Pose2| {
+        let on = (view.thinned.iter())
+            .filter(|(p, _)| {
+                let q = pose.transform_point(*p);
+                tree.nearest_one::<SquaredEuclidean>(&[q.x, q.y]).distance <= reach2
+            })
+            .count();
+        on as f64 / view.thinned.len() as f64
     };
-    let reg = register(&field, &points, &prior, &register_config).ok()?;
-    if !reg.accepted {
-        return None;
-    }
-    let apart = at.between(&reg.pose);
-    let at_best =
-        apart.translation().norm() <= test.rival_apart_m && apart.theta.abs() <= test.rival_apart_rad;
-    if !at_best {
-        return Some(apart);
-    }
-    reg.rival
-        .filter(|r| r.below_best_ln < test.min_rival_gap_ln)
-        .map(|r| at.between(&r.pose))
+    let apart = |pose: &Pose2| {
+        let d = at.between(pose);
+        d.translation().norm() > config.same_answer_m || d.theta.abs() > config.same_answer_rad
+    };
+    // Each sector's best pose, flat over the map.
+    let sector = std::f64::consts::TAU / LOOK_ALIKE_SECTORS as f64;
+    let found: Vec<Pose2> = (0..LOOK_ALIKE_SECTORS)
+        .filter_map(|k| {
+            let prior = PosePrior {
+                mean: Pose2::new(
+                    0.5 * (lo.x + hi.x),
+                    0.5 * (lo.y + hi.y),
+                    at.theta + k as f64 * sector,
+                ),
+                sigma_forward_m: 1e3,
+                sigma_left_m: 1e3,
+                sigma_theta_rad: 0.5 * sector / coarse_config.window_sigmas,
+            };
+            let reg = register(&coarse, &view.points, &prior, &coarse_config).ok()?;
+            if !reg.accepted {
+                return None;
+            }
+            let near = PosePrior {
+                mean: reg.pose,
+                sigma_forward_m: LOOK_ALIKE_CELL_M,
+                sigma_left_m: LOOK_ALIKE_CELL_M,
+                sigma_theta_rad: 1f64.to_radians(),
+            };
+            let refined = register(&fine, &view.points, &near, &config.register).ok()?;
+            Some(if refined.accepted { refined.pose } else { reg.pose })
+        })
+        .collect();
+    // The view where it was taken: at its map pose, or the search's best
+    // near it (the map pose may sit a cell or a degree off the best fit).
+    let own = found
+        .iter()
+        .filter(|p| !apart(p))
+        .map(&share)
+        .fold(share(at), f64::max);
+    found
+        .iter()
+        .filter(|p| apart(p))
+        .map(|p| (share(p), p))
+        .filter(|(score, _)| *score >= own - config.min_margin)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, p)| at.between(p))
 }
+
+/// The cell and σ of the coarse field a place's look-alike is first
+/// searched on, metres.
+const LOOK_ALIKE_CELL_M: f64 = 0.05;
+
+/// The most lattice poses a sector's posterior may spread over: a fit
+/// that pins a pose keeps a few hundred.
+const LOOK_ALIKE_SPREAD_POSES: usize = 1 << 14;
+
+/// Sectors of heading a place's look-alike is searched in, one search
+/// each (a search's best is one pose: a look-alike turned half round
+/// lies in another sector than the place).
+const LOOK_ALIKE_SECTORS: usize = 8;
 
 /// Map cells at least this likely occupied are the walls a look-alike is
 /// searched among (the grid's free threshold's counterpart).
@@ -648,8 +688,8 @@ mod tests {
     }
 
     /// In a bare rectangular room a spot looks like its image half round
-    /// about the centre: that is its look-alike, in its own frame. A box
-    /// in one corner tells the two apart.
+    /// about the centre: that is its look-alike, in its own frame. A room
+    /// that one corner's recess makes an L tells the two apart.
     #[test]
     fn a_place_in_a_symmetric_room_has_its_image_as_look_alike() {
         let mut walls = pirouette_sim::Walls::default();
@@ -665,8 +705,15 @@ mod tests {
             "{found:?}"
         );
 
-        walls.rectangle(3.2, 2.2, 4.0, 3.0);
-        let found = look_alike(&view_of(&walls, &at), &map_of(&walls, 4.0, 3.0), &at, &config);
+        let l_room = pirouette_sim::Walls::new(vec![
+            [0.0, 0.0, 4.0, 0.0],
+            [4.0, 0.0, 4.0, 1.6],
+            [4.0, 1.6, 2.4, 1.6],
+            [2.4, 1.6, 2.4, 3.0],
+            [2.4, 3.0, 0.0, 3.0],
+            [0.0, 3.0, 0.0, 0.0],
+        ]);
+        let found = look_alike(&view_of(&l_room, &at), &map_of(&l_room, 4.0, 3.0), &at, &config);
         assert_eq!(found, None);
     }
 
