@@ -170,6 +170,7 @@ pub fn file_sweeps(
     let mut left_out = Vec::new();
     let mut filed = 0;
     let at = |id: u32| format!("{}: sweep {id}", ds.manifest_path().display());
+    let walls = map.and_then(|m| LookAlikeMap::of(&m.grid, config));
     for s in sweeps {
         let signature = match index.transforms().signature(&s.sweep.rop) {
             Ok(sig) => sig,
@@ -189,9 +190,10 @@ pub fn file_sweeps(
             truth,
             profile: Some(StoredProfile::from_rop(&s.sweep.rop)),
             map_pose: map_pose.map(|p| [p.x, p.y, p.theta]),
-            look_alike: map
+            look_alike: walls
+                .as_ref()
                 .zip(map_pose)
-                .and_then(|(map, at)| look_alike(&s.sweep.rop, &map.grid, &at, config))
+                .and_then(|(walls, at)| look_alike(&s.sweep.rop, walls, &at, config))
                 .map(|p| [p.x, p.y, p.theta]),
         };
         index
@@ -472,57 +474,79 @@ fn refine(
     })
 }
 
+/// A dataset's map as look-alikes are searched in: its walls (cells at
+/// least [`WALL_PROBABILITY`] occupied), their fields (coarse for the
+/// search, fine for its refinement) and a tree for scoring. Built once
+/// for all of a dataset's places.
+pub struct LookAlikeMap {
+    fine: LikelihoodField,
+    coarse: LikelihoodField,
+    tree: ImmutableKdTree<f64, 2>,
+    centre: Point2,
+    half_m: f64,
+}
+
+impl LookAlikeMap {
+    /// The walls of `map`, with `config`'s registration; `None` where the
+    /// map has none.
+    pub fn of(map: &OccupancyGrid, config: &LocaliseConfig) -> Option<Self> {
+        let s = map.resolution_m();
+        let ((lo_x, lo_y), (hi_x, hi_y)) = map.known_extent()?;
+        let walls: Vec<Point2> = map
+            .cells_above(WALL_PROBABILITY)
+            .into_iter()
+            .map(|(i, j)| Point2::new((i as f64 + 0.5) * s, (j as f64 + 0.5) * s))
+            .collect();
+        if walls.is_empty() {
+            return None;
+        }
+        let field_of = |cell: f64, sigma: f64| {
+            LikelihoodField::from_points(&walls, cell, sigma, config.register.epsilon)
+        };
+        let coords: Vec<[f64; 2]> = walls.iter().map(|p| [p.x, p.y]).collect();
+        Some(Self {
+            fine: field_of(config.field_resolution_m, config.register.sigma_m),
+            coarse: field_of(LOOK_ALIKE_CELL_M, LOOK_ALIKE_CELL_M),
+            tree: ImmutableKdTree::new_from_slice(&coords),
+            centre: Point2::new(0.5 * (lo_x + hi_x) as f64 * s, 0.5 * (lo_y + hi_y) as f64 * s),
+            half_m: 0.5 * ((hi_x - lo_x) as f64 * s).max((hi_y - lo_y) as f64 * s),
+        })
+    }
+}
+
 /// A place's look-alike: where else in its dataset's map its view fits
 /// about as well as where it was taken. The view (the stored profile's
 /// points) is registered on the whole map in each of eight sectors of
 /// heading (on a 5 cm field, then refined with `config`'s registration
 /// and field, as queries are on a place), and each sector's best is
-/// scored as answers are: the share of
-/// the view's points (one per registration cell) within 2σ of a wall of
-/// the map. The look-alike is the best-scoring pose apart from the
-/// place's map pose `at` (two answers: see
-/// [`LocaliseConfig::same_answer_m`]) that scores within [`LocaliseConfig::min_margin`] of the
-/// view at `at`, or better; returned in the place's own frame. `None`
-/// where the view fits its own pose alone, or there is no map or view.
-pub fn look_alike(rop: &Rop, map: &OccupancyGrid, at: &Pose2, config: &LocaliseConfig) -> Option<Pose2> {
+/// scored as answers are: the share of the view's points (one per
+/// registration cell) within 2σ of a wall of the map. The look-alike is
+/// the best-scoring pose apart from the place's map pose `at` (two
+/// answers: see [`LocaliseConfig::same_answer_m`]) that scores within
+/// [`LocaliseConfig::min_margin`] of the view at `at`, or better;
+/// returned in the place's own frame. `None` where the view fits its own
+/// pose alone, or has no points.
+pub fn look_alike(rop: &Rop, map: &LookAlikeMap, at: &Pose2, config: &LocaliseConfig) -> Option<Pose2> {
     let view = View::of(rop, vec![None; rop.len()], config);
-    let s = map.resolution_m();
-    let ((lo_x, lo_y), (hi_x, hi_y)) = map.known_extent()?;
-    let walls: Vec<Point2> = map
-        .cells_above(WALL_PROBABILITY)
-        .into_iter()
-        .map(|(i, j)| Point2::new((i as f64 + 0.5) * s, (j as f64 + 0.5) * s))
-        .collect();
-    if walls.is_empty() || view.thinned.is_empty() {
+    if view.thinned.is_empty() {
         return None;
     }
-    let (lo, hi) = (
-        Point2::new(lo_x as f64 * s, lo_y as f64 * s),
-        Point2::new(hi_x as f64 * s, hi_y as f64 * s),
-    );
-    // Each sector searched on a coarse field, its best refined on the
-    // fine one. A sector where the view fits nowhere in particular
-    // spreads over many poses: given up early (no look-alike there).
+    // A sector where the view fits nowhere in particular spreads over
+    // many poses: given up early (no look-alike there).
     let coarse_config = RegisterConfig {
         sigma_m: LOOK_ALIKE_CELL_M,
         spacing_m: LOOK_ALIKE_CELL_M,
-        max_window_m: 0.5 * (hi.x - lo.x).max(hi.y - lo.y) + LOOK_ALIKE_CELL_M,
+        max_window_m: map.half_m + LOOK_ALIKE_CELL_M,
         max_spread_poses: LOOK_ALIKE_SPREAD_POSES,
         ..config.register.clone()
     };
-    let field_of =
-        |cell: f64, sigma: f64| LikelihoodField::from_points(&walls, cell, sigma, config.register.epsilon);
-    let coarse = field_of(LOOK_ALIKE_CELL_M, LOOK_ALIKE_CELL_M);
-    let fine = field_of(config.field_resolution_m, config.register.sigma_m);
-    let coords: Vec<[f64; 2]> = walls.iter().map(|p| [p.x, p.y]).collect();
-    let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&coords);
     let reach2 = (2.0 * config.register.sigma_m).powi(2);
     // The share of the view's points on a wall, the view at `pose`.
     let share = |pose: &Pose2| {
         let on = (view.thinned.iter())
             .filter(|(p, _)| {
                 let q = pose.transform_point(*p);
-                tree.nearest_one::<SquaredEuclidean>(&[q.x, q.y]).distance <= reach2
+                map.tree.nearest_one::<SquaredEuclidean>(&[q.x, q.y]).distance <= reach2
             })
             .count();
         on as f64 / view.thinned.len() as f64
@@ -531,21 +555,18 @@ pub fn look_alike(rop: &Rop, map: &OccupancyGrid, at: &Pose2, config: &LocaliseC
         let d = at.between(pose);
         d.translation().norm() > config.same_answer_m || d.theta.abs() > config.same_answer_rad
     };
-    // Each sector's best pose, flat over the map.
+    // Each sector's best pose, flat over the map, refined on the fine
+    // field.
     let sector = std::f64::consts::TAU / LOOK_ALIKE_SECTORS as f64;
     let found: Vec<Pose2> = (0..LOOK_ALIKE_SECTORS)
         .filter_map(|k| {
             let prior = PosePrior {
-                mean: Pose2::new(
-                    0.5 * (lo.x + hi.x),
-                    0.5 * (lo.y + hi.y),
-                    at.theta + k as f64 * sector,
-                ),
+                mean: Pose2::new(map.centre.x, map.centre.y, at.theta + k as f64 * sector),
                 sigma_forward_m: 1e3,
                 sigma_left_m: 1e3,
                 sigma_theta_rad: 0.5 * sector / coarse_config.window_sigmas,
             };
-            let reg = register(&coarse, &view.points, &prior, &coarse_config).ok()?;
+            let reg = register(&map.coarse, &view.points, &prior, &coarse_config).ok()?;
             if !reg.accepted {
                 return None;
             }
@@ -555,7 +576,7 @@ pub fn look_alike(rop: &Rop, map: &OccupancyGrid, at: &Pose2, config: &LocaliseC
                 sigma_left_m: LOOK_ALIKE_CELL_M,
                 sigma_theta_rad: 1f64.to_radians(),
             };
-            let refined = register(&fine, &view.points, &near, &config.register).ok()?;
+            let refined = register(&map.fine, &view.points, &near, &config.register).ok()?;
             Some(if refined.accepted { refined.pose } else { reg.pose })
         })
         .collect();
@@ -671,20 +692,21 @@ mod tests {
         rop
     }
 
-    /// The map of `walls` seen from a lattice of spots 0.5 m apart.
-    fn map_of(walls: &pirouette_sim::Walls, w: f64, h: f64) -> OccupancyGrid {
-        let config = pirouette_grid::GridConfig {
+    /// The map of `walls` seen from a lattice of spots 0.5 m apart, as
+    /// look-alikes are searched in.
+    fn map_of(walls: &pirouette_sim::Walls, w: f64, h: f64, config: &LocaliseConfig) -> LookAlikeMap {
+        let grid_config = pirouette_grid::GridConfig {
             resolution_m: 0.02,
             ..Default::default()
         };
-        let mut grid = OccupancyGrid::new(config).unwrap();
+        let mut grid = OccupancyGrid::new(grid_config).unwrap();
         for i in 1..(2.0 * w) as usize {
             for j in 1..(2.0 * h) as usize {
                 let at = Pose2::new(0.5 * i as f64, 0.5 * j as f64, 0.3 * (i + j) as f64);
                 grid.insert_profile(&at, &view_of(walls, &at), 0.0);
             }
         }
-        grid
+        LookAlikeMap::of(&grid, config).expect("walls")
     }
 
     /// In a bare rectangular room a spot looks like its image half round
@@ -697,8 +719,13 @@ mod tests {
         let at = Pose2::new(1.2, 1.0, 0.4);
         let image = Pose2::new(2.8, 2.0, 0.4 + PI);
         let config = LocaliseConfig::default();
-        let found =
-            look_alike(&view_of(&walls, &at), &map_of(&walls, 4.0, 3.0), &at, &config).expect("a look-alike");
+        let found = look_alike(
+            &view_of(&walls, &at),
+            &map_of(&walls, 4.0, 3.0, &config),
+            &at,
+            &config,
+        )
+        .expect("a look-alike");
         let off = found.between(&at.between(&image));
         assert!(
             off.translation().norm() < 0.1 && off.theta.abs() < 2f64.to_radians(),
@@ -713,7 +740,12 @@ mod tests {
             [2.4, 3.0, 0.0, 3.0],
             [0.0, 3.0, 0.0, 0.0],
         ]);
-        let found = look_alike(&view_of(&l_room, &at), &map_of(&l_room, 4.0, 3.0), &at, &config);
+        let found = look_alike(
+            &view_of(&l_room, &at),
+            &map_of(&l_room, 4.0, 3.0, &config),
+            &at,
+            &config,
+        );
         assert_eq!(found, None);
     }
 
