@@ -475,7 +475,7 @@ fn refine(
 }
 
 /// A dataset's map as look-alikes are searched in: its walls (cells at
-/// least [`WALL_PROBABILITY`] occupied), their fields (coarse for the
+/// least 60 % likely occupied), their fields (coarse for the
 /// search, fine for its refinement) and a tree for scoring. Built once
 /// for all of a dataset's places.
 pub struct LookAlikeMap {
