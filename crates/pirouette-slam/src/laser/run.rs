@@ -169,10 +169,9 @@ pub fn register_log(
                 ambiguous,
             } = m.matched(&frame, &label)?;
             // Matched near the last registered scan: the local map holds
-            // what it sees. An ambiguous match is kept (and marked), not
-            // left out on a move it does not pin.
+            // what it sees.
             let relative = m.poses[k - 1].between(&reg.pose);
-            if reg.accepted && !ambiguous && !config.motion_filter.keeps(&relative) {
+            if reg.accepted && !config.motion_filter.keeps(&relative) {
                 m.skip(&scan, relative);
                 continue;
             }
