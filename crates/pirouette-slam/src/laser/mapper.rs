@@ -65,8 +65,10 @@ pub(super) struct Matched {
     pub points: Vec<Point2>,
     /// The match.
     pub registration: Registration,
-    /// Whether two poses apart (beyond the revisit test's tolerances)
-    /// explain the scan within its gap: the one kept may be wrong.
+    /// Whether the match pins no one pose: another pose apart (beyond
+    /// the revisit test's tolerances) explains the scan within its gap,
+    /// or the match spreads wider than those tolerances. The one kept may
+    /// be wrong.
     pub ambiguous: bool,
 }
 
@@ -176,7 +178,7 @@ impl<'c> Mapper<'c> {
     /// the revisit test's gap, or a posterior spread (one σ) beyond its
     /// tolerances (a corridor's length the scan does not tell, where the
     /// prior alone placed it).
-    fn has_rival(&self, reg: &Registration) -> bool {
+    fn pins_no_pose(&self, reg: &Registration) -> bool {
         let t = &self.config.loops.revisit;
         let c = &reg.covariance;
         let spread_m = nalgebra::Matrix2::new(c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)])
@@ -216,11 +218,11 @@ impl<'c> Mapper<'c> {
             };
             let again = register(field, points, &wide, &register_config)?;
             if again.accepted && !at_window_edge(&wide, &again.pose, &config.register, cell) {
-                let ambiguous = self.has_rival(&again);
+                let ambiguous = self.pins_no_pose(&again);
                 return Ok((again, ambiguous));
             }
         }
-        let ambiguous = self.has_rival(&reg);
+        let ambiguous = self.pins_no_pose(&reg);
         Ok((reg, ambiguous))
     }
 
@@ -278,7 +280,7 @@ impl<'c> Mapper<'c> {
                     d.translation().norm() > t.rival_apart_m || d.theta.abs() > t.rival_apart_rad
                 };
                 let rival = trusted.iter().any(|o| o.0 > c.0 - gap && apart(&o.2));
-                Ok((c.2.clone(), rival || self.has_rival(&c.2)))
+                Ok((c.2.clone(), rival || self.pins_no_pose(&c.2)))
             }
             (None, Some(reg)) => Ok((reg, false)),
             (None, None) => Ok((
