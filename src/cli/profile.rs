@@ -51,6 +51,12 @@ pub struct ProfileOptions {
     /// faint steps off).
     #[arg(long, default_value_t = VisionConfig::default().faint_texture_ratio)]
     faint_texture_ratio: f32,
+    /// Columns each side over which the line cue pools the floor's grain
+    /// along a candidate base, finding smooth walls of the floor's own
+    /// brightness where the grain ends (0 turns it off; so does a texture
+    /// ratio of 0).
+    #[arg(long, default_value_t = VisionConfig::default().line_columns)]
+    line_columns: u32,
 }
 
 impl ProfileOptions {
@@ -75,6 +81,7 @@ impl ProfileOptions {
             texture_ratio: self.texture_ratio,
             faint_step_fraction: self.faint_step_fraction,
             faint_texture_ratio: self.faint_texture_ratio,
+            line_columns: self.line_columns,
             filter,
             ..VisionConfig::default()
         };

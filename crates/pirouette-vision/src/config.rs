@@ -25,6 +25,10 @@ pub enum VisionError {
     },
 }
 
+/// The most columns each side the line cue may pool
+/// ([`VisionConfig::line_columns`]): a window wider than most images.
+pub(crate) const MAX_LINE_COLUMNS: u32 = 512;
+
 /// Settings of floor segmentation and profile building.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VisionConfig {
@@ -64,6 +68,13 @@ pub struct VisionConfig {
     /// `faint_step_fraction`); 0 turns the faint cue off, and so does
     /// turning the texture cue off.
     pub faint_texture_ratio: f32,
+    /// Columns each side of a column over which the line cue pools the
+    /// floor's grain along a candidate base's line: where the scan found no
+    /// base within the soft limit, it finds a smooth surface of the
+    /// floor's own brightness and hue by the grain ending along a line,
+    /// with the texture cue's ratio. 0 turns it off, and so does turning
+    /// the texture cue off.
+    pub line_columns: u32,
     /// How fast the floor reference's level follows the floor up a column,
     /// per row.
     pub adapt_rate: f32,
@@ -117,6 +128,13 @@ impl Default for VisionConfig {
     ///   that a surface ends there, so the texture drop must say it: a
     ///   third lies five standard errors of the ratio below one (as the
     ///   noise test's five standard deviations), where 0.6 lies three;
+    /// - `line_columns`: 8, a window of 17 columns (about 3° of view at
+    ///   320 pixels across): wide enough that the floor's own smooth
+    ///   patches seldom fill it, narrow enough for a wall seen between two
+    ///   obstacles. The line cue finds the bases of light walls that the
+    ///   column cues miss near the soft limit, but like the texture cue in
+    ///   stretches, so it adds walls to maps and is off where views are
+    ///   compared ([`VisionConfig::for_comparing`]);
     /// - `adapt_rate`: 0.25 per row (a memory of about four rows);
     /// - `trend_rate`: 0.1 per row: the brightness trend of the floor
     ///   (vignetting, light fall-off) changes slowly. A trend learnt over
@@ -137,6 +155,7 @@ impl Default for VisionConfig {
             texture_ratio: 0.6,
             faint_step_fraction: 1.0 / 3.0,
             faint_texture_ratio: 1.0 / 3.0,
+            line_columns: 8,
             adapt_rate: 0.25,
             trend_rate: 0.1,
             run_fraction: 0.75,
@@ -154,16 +173,23 @@ impl VisionConfig {
             && self.faint_step_fraction < self.edge_fraction
     }
 
+    /// Whether the line cue is on (see [`VisionConfig::line_columns`]): a
+    /// part of the texture cue.
+    pub fn line_cue(&self) -> bool {
+        self.texture_ratio > 0.0 && self.line_columns > 0
+    }
+
     /// The settings of the profiles that two views are compared on (a
     /// sweep registered against the map of the others, the intermittent
-    /// cue of turn matching): these with faint steps off, or `None` where
-    /// they are off already. Faint steps find faint walls in stretches, as
-    /// the texture cue does but more so: evidence for a map, which fuses
-    /// every sighting, but where two views are compared a wall found in one
-    /// and missed in the other reads as a contradiction.
+    /// cue of turn matching): these with faint steps and the line cue off,
+    /// or `None` where they are off already. Both find faint walls in
+    /// stretches, as the texture cue does but more so: evidence for a map,
+    /// which fuses every sighting, but where two views are compared a wall
+    /// found in one and missed in the other reads as a contradiction.
     pub fn for_comparing(&self) -> Option<Self> {
-        self.faint_steps().then(|| Self {
+        (self.faint_steps() || self.line_cue()).then(|| Self {
             faint_texture_ratio: 0.0,
+            line_columns: 0,
             ..self.clone()
         })
     }
@@ -205,6 +231,14 @@ impl VisionConfig {
         }
         if !(self.faint_texture_ratio >= 0.0 && self.faint_texture_ratio < 1.0) {
             return bad("faint texture ratio must be in [0, 1)");
+        }
+        if self.line_columns > MAX_LINE_COLUMNS {
+            return Err(VisionError::BadConfig {
+                problem: format!(
+                    "line columns {} is more than {MAX_LINE_COLUMNS}: the line cue pools twice that many columns",
+                    self.line_columns
+                ),
+            });
         }
         if !(self.min_brightness_step >= 0.0 && self.min_chroma_step >= 0.0 && self.noise_sigmas >= 0.0) {
             return bad("brightness and chroma steps and noise multiples must be non-negative");

@@ -1,6 +1,7 @@
 //! Image → boundaries → ROP.
 
 mod decide;
+mod line;
 mod noise;
 mod rows;
 mod seed;
@@ -308,8 +309,18 @@ impl RopExtractor {
     }
 
     /// Scans every column from the bottom up, all columns one row at a
-    /// time (see [`crate::scan`]).
+    /// time (see [`crate::scan`]), then along lines for the bases the
+    /// columns alone cannot tell (see [`line`]).
     fn scan(&self, px: &[u8], sigma: f32) -> Vec<ColumnBoundary> {
+        let mut out = self.scan_rows(px, sigma);
+        if self.config.line_cue() {
+            line::add_bases(self, px, grey_noise_sigma(px, self.width, self.height), &mut out);
+        }
+        out
+    }
+
+    /// The column-wise cues' boundaries, all columns one row at a time.
+    fn scan_rows(&self, px: &[u8], sigma: f32) -> Vec<ColumnBoundary> {
         let (m, n) = (self.width as usize, self.height);
         let mut out = vec![ColumnBoundary::NoFloor; m];
         let mut lanes = Lanes::new(m);

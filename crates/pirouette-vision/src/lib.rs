@@ -22,10 +22,14 @@
 //! sharply and the floor's grain stops above the step, the step is a
 //! smooth wall's base ([`VisionConfig::texture_ratio`]); a fainter step,
 //! down to a third of the brightness tolerance, counts where the texture
-//! drops further ([`VisionConfig::faint_step_fraction`]). These cues find
+//! drops further ([`VisionConfig::faint_step_fraction`]). Where a column
+//! still sees no base within the soft limit, the grain of the floor is
+//! pooled along lines over many columns, and a line where it ends under a
+//! smooth surface is a base ([`VisionConfig::line_columns`]). These cues find
 //! faint walls only in stretches, so turns are matched on profiles without
 //! them ([`VisionConfig::for_matching`]) and sweeps are registered on
-//! profiles without the faint steps ([`VisionConfig::for_comparing`]).
+//! profiles without the faint steps and the line cue
+//! ([`VisionConfig::for_comparing`]).
 //!
 //! ```
 //! use pirouette_camera::PinholeModel;

@@ -189,6 +189,78 @@ fn faint_steps_of_smooth_walls_are_found_by_their_texture() {
     );
 }
 
+/// A floor of mottled grain (cells of 3 × 3 pixels, ±10 %) under sensor
+/// noise (±2 levels) whose grain ends at row 60, below a smooth surface of
+/// the floor's own colour and brightness (`wall`), or runs on to the top.
+fn mottled_floor(wall: bool) -> image::RgbImage {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let grain: Vec<f32> = (0..107 * 80).map(|_| 0.9 + 0.2 * rng.random::<f32>()).collect();
+    let noise: Vec<f32> = (0..320 * 240)
+        .map(|_| 4.0 * (rng.random::<f32>() - 0.5))
+        .collect();
+    let floor = [100.0f32, 95.0, 85.0];
+    image::RgbImage::from_fn(320, 240, |u, v| {
+        let g = if wall && v < 60 {
+            1.0
+        } else {
+            grain[(v / 3 * 107 + u / 3) as usize]
+        };
+        let n = noise[(v * 320 + u) as usize];
+        image::Rgb(floor.map(|c| (c * g + n).round().clamp(0.0, 255.0) as u8))
+    })
+}
+
+/// A smooth wall of the floor's own brightness and hue over a grained
+/// floor: no step of colour or brightness at its base (between rows 59
+/// and 60), only the grain ending there. The line cue finds the base
+/// within a row in all but the columns nearest the image's sides, where
+/// the pooled window does not fit, and a few where it lies a few rows low
+/// (a cell of grain smoother than the rest just below the base); it
+/// changes no other column. Without
+/// it the wall is floor. On the floor alone, grained all the way up, it
+/// changes nothing.
+#[test]
+fn line_cue_finds_smooth_walls_by_the_grain_ending() {
+    let boundaries = |img: &image::RgbImage, line_columns: u32| {
+        let config = VisionConfig {
+            line_columns,
+            ..VisionConfig::default()
+        };
+        RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap()
+    };
+    let within = |b: &ColumnBoundary, rows: f32| matches!(b, ColumnBoundary::Obstacle { row, .. } if (row - 59.5).abs() < rows);
+    let at_base = |b: &ColumnBoundary| within(b, 1.5);
+    let wall = mottled_floor(true);
+    let (with, without) = (boundaries(&wall, 8), boundaries(&wall, 0));
+    let found = with.iter().filter(|b| at_base(b)).count();
+    assert!(found >= 270, "the wall's base in {found} of 320 columns");
+    assert_eq!(
+        without.iter().filter(|b| at_base(b)).count(),
+        0,
+        "without the line cue the wall is floor"
+    );
+    for (u, (a, b)) in with.iter().zip(&without).enumerate() {
+        assert!(
+            a == b || within(a, 5.5),
+            "column {u}: {a:?} where the scan alone gives {b:?}"
+        );
+    }
+    let floor = mottled_floor(false);
+    assert_eq!(
+        boundaries(&floor, 8),
+        boundaries(&floor, 0),
+        "a grained floor is floor"
+    );
+    let too_wide = VisionConfig {
+        line_columns: 513,
+        ..VisionConfig::default()
+    };
+    assert!(
+        too_wide.validate().is_err(),
+        "a window of 1,027 columns is refused"
+    );
+}
+
 /// The profiles turns are verified on: every setting kept but the
 /// texture cue, which is turned off; none where it is off already.
 #[test]
@@ -227,6 +299,7 @@ fn comparing_settings_drop_only_the_faint_steps() {
         comparing,
         VisionConfig {
             faint_texture_ratio: 0.0,
+            line_columns: 0,
             ..config.clone()
         }
     );

@@ -11,7 +11,7 @@ pub(super) const TEXTURE_MIN_ROWS: usize = 3;
 /// Half-width of the texture window, columns: the band-pass's wide mean
 /// spans `2·TEXTURE_HALF + 1` columns, and the median is taken over so
 /// many centres a row.
-const TEXTURE_HALF: u32 = 7;
+pub(super) const TEXTURE_HALF: u32 = 7;
 
 /// The texture of a window of rows around one column (see
 /// [`texture_energy`]).
@@ -28,14 +28,10 @@ const HALF_NORMAL_MEDIAN: f32 = 0.674_49;
 
 impl Texture {
     /// The median relative band-pass value that sensor noise alone gives,
-    /// for grey noise of standard deviation `grey_sigma` per pixel: the
-    /// band-pass weighs the three centre pixels `1/3 − 1/N` and the other
-    /// `N − 3` pixels `−1/N` (`N = 2·TEXTURE_HALF + 1`).
+    /// for grey noise of standard deviation `grey_sigma` per pixel (see
+    /// [`band_pass_noise`]).
     pub(super) fn noise(&self, grey_sigma: f32) -> f32 {
-        let n = (2 * TEXTURE_HALF + 1) as f32;
-        let gain = (3.0 * (1.0 / 3.0 - 1.0 / n).powi(2) + (n - 3.0) / (n * n)).sqrt();
-        // Grey is a third of the channel sum the values are relative to.
-        HALF_NORMAL_MEDIAN * gain * 3.0 * grey_sigma / self.level.max(1.0)
+        HALF_NORMAL_MEDIAN * band_pass_noise(grey_sigma, self.level)
     }
 
     /// The texture beyond the noise: independent sources add in variance,
@@ -44,6 +40,18 @@ impl Texture {
         let n = self.noise(grey_sigma);
         (self.median_rel * self.median_rel - n * n).max(0.0).sqrt()
     }
+}
+
+/// The standard deviation of the relative band-pass that grey noise of
+/// standard deviation `grey_sigma` per pixel gives where the wide mean of
+/// the channel sums is `level`: the band-pass weighs the three centre
+/// pixels `1/3 − 1/N` and the other `N − 3` pixels `−1/N` (`N =
+/// 2·TEXTURE_HALF + 1`).
+pub(super) fn band_pass_noise(grey_sigma: f32, level: f32) -> f32 {
+    let n = (2 * TEXTURE_HALF + 1) as f32;
+    let gain = (3.0 * (1.0 / 3.0 - 1.0 / n).powi(2) + (n - 3.0) / (n * n)).sqrt();
+    // Grey is a third of the channel sum the values are relative to.
+    gain * 3.0 * grey_sigma / level.max(1.0)
 }
 
 /// The texture of rows `rows` around column `u`: over `2·TEXTURE_HALF + 1`

@@ -1,0 +1,504 @@
+//! The line cue: the base of a smooth surface on a grained floor, found
+//! where the floor's grain ends along a line many columns long.
+//!
+//! A light wall over a floor of its own brightness and nearly its hue
+//! differs from the floor in its grain alone, and without a step at its
+//! base the column-wise cues have nothing to start from. One column
+//! measures grain too noisily to tell a wall from the floor's own smoother
+//! patches, but a straight base is a straight line in the image, so the
+//! grain (the spread of the texture cue's band-pass, beyond what the
+//! sensor noise gives it) is pooled along lines of a few slopes over
+//! `2·line_columns + 1` columns. A candidate base is one where
+//!
+//! - the floor below it is grained over its first 4 rows, its first 12
+//!   and the 12 after (grain that fades with distance, a grained strip
+//!   under a smooth patch near the camera, or the rim of a flat bright
+//!   speck on a smooth floor is not a base);
+//! - the surface above it, over as many rows as an obstacle of the least
+//!   height spans there, is smooth: its grain within about two standard
+//!   errors of the noise's own;
+//! - the ratio of the two is at most `texture_ratio`;
+//!
+//! and a base is a line: the candidates of neighbouring columns must run
+//! on, row to row, over at least the pooled window. Within a column the
+//! base is put where the whole spread, noise included, falls most.
+//!
+//! Only columns whose scan found no base within the soft range limit are
+//! searched, and only the rows the scan took for floor, so the cue can
+//! only bring a column's boundary nearer. The grain is sampled every other
+//! column.
+
+use super::texture::{band_pass_noise, TEXTURE_HALF};
+use super::RopExtractor;
+use crate::scan::smoothed;
+use crate::ColumnBoundary;
+use pirouette_profile::ColourTag;
+
+/// Rows of floor below a candidate base whose grain is pooled.
+const FLOOR_ROWS: i32 = 12;
+
+/// Rows just below a candidate base that must carry the floor's grain too.
+const STEP_ROWS: i32 = 4;
+
+/// The fewest rows above a candidate base (a wall near the image's top
+/// shows only a few).
+const MIN_ABOVE_ROWS: i32 = 3;
+
+/// The most rows above a candidate base that are pooled: an obstacle of the
+/// least height near the camera spans more, and its lowest rows are enough
+/// to tell it from the floor.
+const MAX_ABOVE_ROWS: i32 = 64;
+
+/// Slopes of the lines tried, rows per column: a base seen across the
+/// image at up to about 30° from the image rows. Neighbours differ by a
+/// quarter of a row a column: a line between two is met within a row at
+/// the window's ends, well within the bands of rows compared.
+const SLOPES: [f32; 5] = [-0.5, -0.25, 0.0, 0.25, 0.5];
+
+/// How far the floor's grain below a candidate base must stand above the
+/// noise's part of the band-pass (beyond it, as a multiple of it): a floor
+/// whose grain the noise hides, smooth at the band-pass's scale, has no
+/// grain to end at a wall's base.
+const GRAIN_OVER_NOISE: f32 = 1.5;
+
+/// The most grain beyond the noise, as a multiple of the noise's part,
+/// that a smooth surface above a candidate base may show: a spread at most
+/// 1.22 times the noise's, about two standard errors of a spread measured
+/// over the fewest rows above.
+const SMOOTH_OVER_NOISE: f32 = 0.7;
+
+/// The standard deviation of the error of rounding to 8-bit levels.
+const QUANTISATION_SIGMA: f32 = 0.29;
+
+/// The most a base's row may change from one column to the next.
+const MAX_ROW_STEP: i32 = 2;
+
+/// The share of a pooled band's pixels that must lie in the image and
+/// carry a band-pass value.
+const MIN_COVER: f32 = 0.75;
+
+/// A band-pass value beyond this many standard deviations of its noise
+/// is clipped to it: a speck of lint counts as strong grain, not as all of
+/// a window's.
+const CLIP_SIGMAS: f32 = 3.0;
+
+/// Image columns per sample of the grain: neighbouring columns share two
+/// of the three pixels of the band-pass's narrow mean, so every other one
+/// says nearly all that both do, at half the cost.
+const STRIDE: usize = 2;
+
+/// Per sample of rows `r0..height`, the fields pooled along lines: the
+/// signed band-pass of the grey level (clipped), its square, the variance
+/// noise alone gives it there, and whether it exists (columns within
+/// `TEXTURE_HALF` of the image's sides have none).
+struct Grain {
+    r0: i32,
+    rows: i32,
+    width: usize,
+    /// Column-major (a sample's rows in turn), the fields of a sample
+    /// together.
+    fields: Vec<[f32; FIELDS]>,
+}
+
+/// Fields of [`Grain`].
+const FIELDS: usize = 4;
+
+impl Grain {
+    /// The relative horizontal band-pass (a three-column mean against a
+    /// `2·TEXTURE_HALF + 1`-column one, as the texture cue's) of every
+    /// pixel in rows `r0..height`, and the variance grey noise of
+    /// standard deviation `grey_sigma` gives it.
+    fn of(px: &[u8], width: u32, height: u32, r0: u32, grey_sigma: f32) -> Self {
+        let half = TEXTURE_HALF as usize;
+        let rows = (height - r0) as usize;
+        // Samples at every STRIDE-th image column.
+        let m = (width as usize).div_ceil(STRIDE);
+        let mut fields = vec![[0f32; FIELDS]; rows * m];
+        let mut prefix = vec![0u32; width as usize + 1];
+        for (k, v) in (r0..height).enumerate() {
+            let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
+            for (u, p) in row.chunks_exact(3).enumerate() {
+                prefix[u + 1] = prefix[u] + p[0] as u32 + p[1] as u32 + p[2] as u32;
+            }
+            for u in (half..(width as usize).saturating_sub(half)).filter(|u| u % STRIDE == 0) {
+                let narrow = (prefix[u + 2] - prefix[u - 1]) as f32 / 3.0;
+                let wide = (prefix[u + half + 1] - prefix[u - half]) as f32 / (2 * half + 1) as f32;
+                if wide > 0.0 {
+                    let i = u / STRIDE * rows + k;
+                    let noise = band_pass_noise(grey_sigma, wide);
+                    let e = ((narrow - wide) / wide).clamp(-CLIP_SIGMAS * noise, CLIP_SIGMAS * noise);
+                    fields[i] = [e, e * e, noise * noise, 1.0];
+                }
+            }
+        }
+        Self {
+            r0: r0 as i32,
+            rows: rows as i32,
+            width: m,
+            fields,
+        }
+    }
+}
+
+/// Sums of the band-pass along the lines of one slope: for every sheared
+/// row `v'` and centre sample `c`, the sum over samples `c − h ..= c + h`
+/// of those at rows `v' + shift(u)`, prefix-summed down `v'`, so that a
+/// band of rows along a line is two look-ups.
+struct Sheared {
+    /// `round(slope · (u − width/2))` per sampled column `u`.
+    shift: Vec<i32>,
+    /// The first sheared row held.
+    lo: i32,
+    rows: i32,
+    /// The image rows held, as [`Grain`]'s.
+    image_rows: std::ops::Range<i32>,
+    /// Column-major (`rows + 1` per centre), the prefix sums down the
+    /// sheared rows of the window sums of [`Grain`]'s fields: for each
+    /// centre, only over the sheared rows of its own image rows.
+    sums: Vec<[f32; FIELDS]>,
+}
+
+fn add(a: [f32; FIELDS], b: [f32; FIELDS]) -> [f32; FIELDS] {
+    std::array::from_fn(|i| a[i] + b[i])
+}
+
+fn sub(a: [f32; FIELDS], b: [f32; FIELDS]) -> [f32; FIELDS] {
+    std::array::from_fn(|i| a[i] - b[i])
+}
+
+impl Sheared {
+    /// The sums along lines of `slope` over `2·h + 1` samples, for centre
+    /// samples `centres` (the others are left zero). The window moves
+    /// along the centres a sample at a time, taking in one sample's column
+    /// of rows and letting one go, each at the sheared rows its image rows
+    /// fall on.
+    fn new(grain: &Grain, slope: f32, h: usize, centres: std::ops::Range<usize>) -> Self {
+        let m = grain.width;
+        let shift: Vec<i32> = (0..m)
+            .map(|j| (slope * STRIDE as f32 * (j as f32 - m as f32 / 2.0)).round() as i32)
+            .collect();
+        let (lo_shift, hi_shift) = (
+            shift.iter().copied().min().unwrap_or(0),
+            shift.iter().copied().max().unwrap_or(0),
+        );
+        // Every sheared row that meets the held rows in some sample: image
+        // row `r0 + r` of sample `u` is sheared row `r + hi_shift − shift(u)`.
+        let lo = grain.r0 - hi_shift;
+        let rows = grain.rows + hi_shift - lo_shift;
+        let (n, stride) = (grain.rows as usize, rows as usize + 1);
+        let mut sums = vec![[0f32; FIELDS]; stride * m];
+        let mut window = vec![[0f32; FIELDS]; rows as usize];
+        let column = |u: usize| {
+            let at = (hi_shift - shift[u]) as usize;
+            (at, &grain.fields[u * n..(u + 1) * n])
+        };
+        // The window before the first centre: the samples it covers but
+        // its last, and the one it lets go on its way in.
+        for u in centres.start.saturating_sub(h + 1)..(centres.start + h).min(m) {
+            let (at, col) = column(u);
+            for (w, x) in window[at..at + n].iter_mut().zip(col) {
+                *w = add(*w, *x);
+            }
+        }
+        for c in centres {
+            if c + h < m {
+                let (at, col) = column(c + h);
+                for (w, x) in window[at..at + n].iter_mut().zip(col) {
+                    *w = add(*w, *x);
+                }
+            }
+            if c > h {
+                let (at, col) = column(c - h - 1);
+                for (w, x) in window[at..at + n].iter_mut().zip(col) {
+                    *w = sub(*w, *x);
+                }
+            }
+            // Only the sheared rows of the centre's own image rows are
+            // looked up.
+            let first = (hi_shift - shift[c]) as usize;
+            let out = &mut sums[c * stride..(c + 1) * stride];
+            for k in first..first + n {
+                out[k + 1] = add(out[k], window[k]);
+            }
+        }
+        Self {
+            shift,
+            lo,
+            rows,
+            image_rows: grain.r0..grain.r0 + grain.rows,
+            sums,
+        }
+    }
+
+    /// The sums of [`Grain`]'s fields over image rows `a..b` at centre
+    /// sample `c` along this slope's line, `None` beyond the rows held.
+    fn band(&self, c: usize, a: i32, b: i32) -> Option<[f32; FIELDS]> {
+        if a < self.image_rows.start || b > self.image_rows.end || a >= b {
+            return None;
+        }
+        let (a, b) = (a - self.shift[c] - self.lo, b - self.shift[c] - self.lo);
+        let at = c * (self.rows as usize + 1);
+        Some(sub(self.sums[at + b as usize], self.sums[at + a as usize]))
+    }
+}
+
+/// The pooled grain of a band of `pixels` from its field sums: the
+/// band-pass's standard deviation (a steady curvature of the light, such
+/// as vignetting, moves the band-pass's mean and is not grain), `None`
+/// where too little of the band was seen.
+fn beyond_noise(sums: [f32; FIELDS], pixels: f32) -> Option<Spread> {
+    let [e, e2, noise2, cover] = sums;
+    (cover >= MIN_COVER * pixels).then(|| {
+        let mean = e / cover;
+        let var = (e2 / cover - mean * mean).max(0.0);
+        let noise2 = noise2 / cover;
+        Spread {
+            beyond2: (var - noise2).max(0.0),
+            noise2,
+            var,
+        }
+    })
+}
+
+/// The spread of a band's band-pass values, as variances (their square
+/// roots are taken only where a candidate passes).
+#[derive(Debug, Clone, Copy)]
+struct Spread {
+    /// Beyond the noise's.
+    beyond2: f32,
+    /// The noise's alone.
+    noise2: f32,
+    /// All of it.
+    var: f32,
+}
+
+impl Spread {
+    /// Whether the spread beyond the noise's is at least `k` times the
+    /// noise's.
+    fn beyond_at_least(&self, k: f32) -> bool {
+        self.beyond2 >= k * k * self.noise2
+    }
+
+    /// Whether the spread beyond the noise's is at most `k` times the
+    /// noise's.
+    fn beyond_at_most(&self, k: f32) -> bool {
+        self.beyond2 <= k * k * self.noise2
+    }
+}
+
+/// Where the line cue searches a column: candidate bases from row `first`
+/// down.
+#[derive(Debug, Clone, Copy)]
+struct Searched {
+    first: i32,
+    /// Under a base the scan found beyond the soft limit: the smooth
+    /// surface above a candidate, all the rows of it, must lie below that
+    /// base too, or the cue would find the same base again a few rows low
+    /// where the far floor under it has lost its grain.
+    under_base: bool,
+}
+
+/// Where the line cue searches column `u`, whose scan gave `b`: below the
+/// base found, or below the last floor row. Columns whose scan found a base
+/// within the soft range limit are not searched.
+fn searched(ex: &RopExtractor, u: usize, b: &ColumnBoundary) -> Option<Searched> {
+    match *b {
+        ColumnBoundary::Obstacle { row, .. } => {
+            let p = ex.table.floor_at_row(u as u32, row.min((ex.height - 1) as f32))?;
+            // Two rows clear of the base found.
+            (p.norm() as f32 > ex.max_range_m).then_some(Searched {
+                first: row.ceil() as i32 + 3,
+                under_base: true,
+            })
+        }
+        ColumnBoundary::Clear { top_row } => Some(Searched {
+            first: top_row as i32 + 1,
+            under_base: false,
+        }),
+        ColumnBoundary::NoFloor => None,
+    }
+}
+
+/// The boundary at a base the line cue found between rows `v − 1` (the
+/// surface's lowest) and `v` (the floor's topmost) of column `u`: there is
+/// no step of colour to place it closer, and the surface's colour is that
+/// of the two rows above its lowest.
+fn base_at(px: &[u8], width: u32, u: u32, v: u32) -> ColumnBoundary {
+    let rows = v.saturating_sub(3)..v.saturating_sub(1).max(1);
+    let k = rows.len().max(1) as f32;
+    let sum = rows.fold([0f32; 3], |acc, w| {
+        let p = smoothed(px, width, u, w);
+        [acc[0] + p[0], acc[1] + p[1], acc[2] + p[2]]
+    });
+    ColumnBoundary::Obstacle {
+        row: v as f32 - 0.5,
+        colour: ColourTag::from_rgb(sum.map(|x| x / k)),
+    }
+}
+
+/// Brings the boundaries `out` of image `px` nearer where the line cue
+/// finds a smooth surface's base below them (see the module's doc).
+pub(super) fn add_bases(ex: &RopExtractor, px: &[u8], grey_sigma: f32, out: &mut [ColumnBoundary]) {
+    let (m, n) = (ex.width as usize, ex.height as i32);
+    let starts: Vec<Option<Searched>> = out.iter().enumerate().map(|(u, b)| searched(ex, u, b)).collect();
+    let Some(top) = starts.iter().flatten().map(|s| s.first).min() else {
+        return;
+    };
+    // Samples (every STRIDE-th column): the rows searched from, and the
+    // window's half-width in samples.
+    let ms = m.div_ceil(STRIDE);
+    let sample_starts: Vec<Option<Searched>> = (0..ms).map(|j| starts[j * STRIDE]).collect();
+    let hs = (ex.config.line_columns as usize / STRIDE).max(1);
+    let r0 = (top - MAX_ABOVE_ROWS).max(0);
+    if r0 + MIN_ABOVE_ROWS + FLOOR_ROWS > n || ms < 2 * hs + 1 {
+        return;
+    }
+    // Never below one 8-bit step's quantisation: on a smooth ramp of grey
+    // the three channels step together, so their mean is no finer, and the
+    // steps of a ramp are no grain.
+    let grain = Grain::of(
+        px,
+        ex.width,
+        ex.height,
+        r0 as u32,
+        grey_sigma.max(QUANTISATION_SIGMA),
+    );
+    let scores = Scores::of(ex, &grain, &sample_starts, hs);
+    let found: Vec<Option<i32>> = sample_starts
+        .iter()
+        .enumerate()
+        .map(|(c, s)| scores.base(c, (*s)?.first, ex.config.texture_ratio))
+        .collect();
+    // A base is a line: only runs of neighbouring samples whose rows follow
+    // on are kept, as long as the pooled window at least. Each sample's row
+    // stands for its own column and the next.
+    let mut c = 0;
+    while c < ms {
+        let Some(mut prev) = found[c] else {
+            c += 1;
+            continue;
+        };
+        let mut end = c + 1;
+        while let Some(v) = found.get(end).copied().flatten() {
+            if (v - prev).abs() > MAX_ROW_STEP * STRIDE as i32 {
+                break;
+            }
+            prev = v;
+            end += 1;
+        }
+        if end - c > 2 * hs {
+            for (j, v) in (c..end).filter_map(|j| Some((j, found[j]?))) {
+                for u in j * STRIDE..((j + 1) * STRIDE).min(m) {
+                    if starts[u].is_some_and(|s| v >= s.first) {
+                        out[u] = base_at(px, ex.width, u as u32, v as u32);
+                    }
+                }
+            }
+        }
+        c = end;
+    }
+}
+
+/// The candidate bases of every searched sample and row, scored over the
+/// slopes.
+struct Scores {
+    /// The first row held.
+    r0: i32,
+    /// The last candidate row: two floor bands above the image's bottom.
+    last_row: i32,
+    /// Samples a row.
+    samples: usize,
+    /// Per row and sample: the least ratio of the grain above to the
+    /// floor's below over the slopes where the candidate's tests hold
+    /// (infinite elsewhere).
+    ratio: Vec<f32>,
+    /// The least ratio of the whole spreads, noise included: where the
+    /// noise hides the surface's grain (the ratio above is 0 for a few rows
+    /// about the base) it still falls most where the grain ends.
+    sharpness: Vec<f32>,
+}
+
+impl Scores {
+    /// Scores the rows below `starts` (per sample) over windows of
+    /// `2·hs + 1` samples.
+    fn of(ex: &RopExtractor, grain: &Grain, starts: &[Option<Searched>], hs: usize) -> Self {
+        let (m, ms, r0) = (ex.width as usize, grain.width, grain.r0);
+        let rows = grain.rows as usize;
+        let mut scores = Self {
+            r0,
+            last_row: r0 + grain.rows - 2 * FLOOR_ROWS,
+            samples: ms,
+            ratio: vec![f32::INFINITY; rows * ms],
+            sharpness: vec![f32::INFINITY; rows * ms],
+        };
+        let first = starts.iter().position(Option::is_some).unwrap_or(0);
+        let last = starts.iter().rposition(Option::is_some).unwrap_or(0);
+        let width = (2 * hs + 1) as f32;
+        for slope in SLOPES {
+            let sheared = Sheared::new(grain, slope, hs, first..last + 1);
+            let spread = |c: usize, a: i32, b: i32| {
+                sheared
+                    .band(c, a, b)
+                    .and_then(|s| beyond_noise(s, width * (b - a) as f32))
+            };
+            for (c, searched) in starts.iter().enumerate() {
+                let Some(searched) = *searched else { continue };
+                for v in searched.first.max(r0 + MIN_ABOVE_ROWS)..=scores.last_row {
+                    // Above, as many rows as an obstacle of the least height
+                    // spans there must be smooth: their band-pass's spread
+                    // within about two standard errors of the noise's own
+                    // (tested first: on the floor it fails at once).
+                    let run = ex.run_rows[(v as usize - 1) * m + c * STRIDE] as i32;
+                    let k = run.clamp(MIN_ABOVE_ROWS, MAX_ABOVE_ROWS);
+                    let k = match searched.under_base {
+                        true if v - k < searched.first => continue,
+                        true => k,
+                        false => k.min(v - r0),
+                    };
+                    let Some(above) = spread(c, v - k, v).filter(|s| s.beyond_at_most(SMOOTH_OVER_NOISE))
+                    else {
+                        continue;
+                    };
+                    // The floor below must carry grain well beyond the
+                    // noise, and so must its rows just below the base:
+                    // grain that fades with distance is not a base.
+                    let grained = |s: &Spread| s.beyond_at_least(GRAIN_OVER_NOISE);
+                    let Some(near) = spread(c, v, v + STEP_ROWS).filter(grained) else {
+                        continue;
+                    };
+                    let Some(below) = spread(c, v, v + FLOOR_ROWS).filter(grained) else {
+                        continue;
+                    };
+                    // And the floor beyond: a speck's rim is grain only
+                    // where the speck lies.
+                    if spread(c, v + FLOOR_ROWS, v + 2 * FLOOR_ROWS)
+                        .filter(grained)
+                        .is_none()
+                    {
+                        continue;
+                    }
+                    let i = (v - r0) as usize * ms + c;
+                    let r = (above.beyond2 / below.beyond2.min(near.beyond2)).sqrt();
+                    scores.ratio[i] = scores.ratio[i].min(r);
+                    scores.sharpness[i] = scores.sharpness[i].min((above.var / near.var).sqrt());
+                }
+            }
+        }
+        scores
+    }
+
+    /// The base of sample `c` searched from row `start` with the greatest
+    /// `ratio` of grain allowed: the nearest row (lowest in the image)
+    /// where the cue holds, then the sharpest of the rows above where it
+    /// holds on (above the base the rows just below a candidate are the
+    /// smooth surface's and it fails).
+    fn base(&self, c: usize, start: i32, ratio: f32) -> Option<i32> {
+        let at = |v: i32| (v - self.r0) as usize * self.samples + c;
+        let rows = start.max(self.r0 + MIN_ABOVE_ROWS)..=self.last_row;
+        let lowest = rows.clone().rev().find(|&v| self.ratio[at(v)] <= ratio)?;
+        (*rows.start()..=lowest)
+            .rev()
+            .take_while(|&v| self.ratio[at(v)] <= ratio)
+            .min_by(|&a, &b| self.sharpness[at(a)].total_cmp(&self.sharpness[at(b)]))
+    }
+}
