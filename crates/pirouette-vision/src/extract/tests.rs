@@ -627,3 +627,44 @@ fn fine_bins_are_filled_between_columns() {
     let hi = rop.bin_of(25f64.to_radians()).unwrap();
     assert!((lo..=hi).all(|i| rop.reliable(i).is_some()));
 }
+
+/// Images far smaller than the line cue's windows, and of noise alone:
+/// every column gets a boundary within the image, none panics.
+#[test]
+fn small_and_noisy_images_give_boundaries_within_the_image() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for (w, h) in [(5u32, 4u32), (17, 13), (33, 25), (64, 48), (320, 24)] {
+        let cam = PinholeModel {
+            width: w,
+            height: h,
+            fx: 0.87 * w as f64,
+            fy: 0.87 * w as f64,
+            cx: (w as f64 - 1.0) / 2.0,
+            cy: (h as f64 - 1.0) / 2.0,
+            ..cam()
+        };
+        let ex = RopExtractor::new(&cam, 0.9, VisionConfig::default());
+        let noise = image::RgbImage::from_fn(w, h, |_, _| image::Rgb(rng.random::<[u8; 3]>()));
+        // A smooth wall over grain, as the line cue looks for.
+        let wall = image::RgbImage::from_fn(w, h, |_, v| {
+            let g = if v < h / 3 {
+                1.0
+            } else {
+                0.9 + 0.2 * rng.random::<f32>()
+            };
+            image::Rgb([100.0f32, 95.0, 85.0].map(|c| (c * g) as u8))
+        });
+        for img in [noise, wall] {
+            let b = ex.boundaries(&img).unwrap();
+            assert_eq!(b.len(), w as usize);
+            for c in &b {
+                if let ColumnBoundary::Obstacle { row, .. } = c {
+                    assert!(
+                        (-0.5..=h as f32 - 0.5).contains(row),
+                        "{w}x{h}: base at row {row}"
+                    );
+                }
+            }
+        }
+    }
+}
