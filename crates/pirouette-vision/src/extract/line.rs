@@ -28,7 +28,7 @@
 //! only bring a column's boundary nearer. The grain is sampled every other
 //! column.
 
-use super::texture::{band_pass_noise, TEXTURE_HALF};
+use super::texture::{band_pass, band_pass_noise, TEXTURE_HALF};
 use super::RopExtractor;
 use crate::scan::smoothed;
 use crate::ColumnBoundary;
@@ -121,12 +121,11 @@ impl Grain {
                 prefix[u + 1] = prefix[u] + p[0] as u32 + p[1] as u32 + p[2] as u32;
             }
             for u in (half..(width as usize).saturating_sub(half)).filter(|u| u % STRIDE == 0) {
-                let narrow = (prefix[u + 2] - prefix[u - 1]) as f32 / 3.0;
-                let wide = (prefix[u + half + 1] - prefix[u - half]) as f32 / (2 * half + 1) as f32;
+                let (pass, wide) = band_pass(&prefix, u);
                 if wide > 0.0 {
                     let i = u / STRIDE * rows + k;
                     let noise = band_pass_noise(grey_sigma, wide);
-                    let e = ((narrow - wide) / wide).clamp(-CLIP_SIGMAS * noise, CLIP_SIGMAS * noise);
+                    let e = (pass / wide).clamp(-CLIP_SIGMAS * noise, CLIP_SIGMAS * noise);
                     fields[i] = [e, e * e, noise * noise, 1.0];
                 }
             }
@@ -136,6 +135,18 @@ impl Grain {
             rows: rows as i32,
             width: m,
             fields,
+        }
+    }
+
+    /// Takes sample `u`'s column of rows into `window` by `op` (or lets it
+    /// go), its first row at `window[at]`.
+    fn shift_in(&self, window: &mut [[f32; FIELDS]], u: usize, at: usize, op: Op) {
+        let n = self.rows as usize;
+        for (w, x) in window[at..at + n]
+            .iter_mut()
+            .zip(&self.fields[u * n..(u + 1) * n])
+        {
+            *w = op(*w, *x);
         }
     }
 }
@@ -157,6 +168,9 @@ struct Sheared {
     /// centre, only over the sheared rows of its own image rows.
     sums: Vec<[f32; FIELDS]>,
 }
+
+/// How a window takes a sample in or lets it go.
+type Op = fn([f32; FIELDS], [f32; FIELDS]) -> [f32; FIELDS];
 
 fn add(a: [f32; FIELDS], b: [f32; FIELDS]) -> [f32; FIELDS] {
     std::array::from_fn(|i| a[i] + b[i])
@@ -188,36 +202,24 @@ impl Sheared {
         let (n, stride) = (grain.rows as usize, rows as usize + 1);
         let mut sums = vec![[0f32; FIELDS]; stride * m];
         let mut window = vec![[0f32; FIELDS]; rows as usize];
-        let column = |u: usize| {
-            let at = (hi_shift - shift[u]) as usize;
-            (at, &grain.fields[u * n..(u + 1) * n])
-        };
-        // The window before the first centre: the samples it covers but
-        // its last, and the one it lets go on its way in.
+        let at = |u: usize| (hi_shift - shift[u]) as usize;
+        // Sample u's image rows fall on the sheared rows from at(u). The
+        // window before the first centre: the samples it covers but its
+        // last, and the one it lets go on its way in.
         for u in centres.start.saturating_sub(h + 1)..(centres.start + h).min(m) {
-            let (at, col) = column(u);
-            for (w, x) in window[at..at + n].iter_mut().zip(col) {
-                *w = add(*w, *x);
-            }
+            grain.shift_in(&mut window, u, at(u), add);
         }
         for c in centres {
             if c + h < m {
-                let (at, col) = column(c + h);
-                for (w, x) in window[at..at + n].iter_mut().zip(col) {
-                    *w = add(*w, *x);
-                }
+                grain.shift_in(&mut window, c + h, at(c + h), add);
             }
             if c > h {
-                let (at, col) = column(c - h - 1);
-                for (w, x) in window[at..at + n].iter_mut().zip(col) {
-                    *w = sub(*w, *x);
-                }
+                grain.shift_in(&mut window, c - h - 1, at(c - h - 1), sub);
             }
             // Only the sheared rows of the centre's own image rows are
             // looked up.
-            let first = (hi_shift - shift[c]) as usize;
             let out = &mut sums[c * stride..(c + 1) * stride];
-            for k in first..first + n {
+            for k in at(c)..at(c) + n {
                 out[k + 1] = add(out[k], window[k]);
             }
         }

@@ -54,6 +54,17 @@ pub(super) fn band_pass_noise(grey_sigma: f32, level: f32) -> f32 {
     gain * 3.0 * grey_sigma / level.max(1.0)
 }
 
+/// The band-pass at column `c` of a row whose channel sums are
+/// prefix-summed in `prefix` (`prefix[k]`, the sum over the columns before
+/// `k`): the three-column mean less the `2·TEXTURE_HALF + 1`-column mean,
+/// and the wider mean. `c` must lie `TEXTURE_HALF` columns inside the row.
+pub(super) fn band_pass(prefix: &[u32], c: usize) -> (f32, f32) {
+    let half = TEXTURE_HALF as usize;
+    let narrow = (prefix[c + 2] - prefix[c - 1]) as f32 / 3.0;
+    let wide = (prefix[c + half + 1] - prefix[c - half]) as f32 / (2 * half + 1) as f32;
+    (narrow - wide, wide)
+}
+
 /// The texture of rows `rows` around column `u`: over `2·TEXTURE_HALF + 1`
 /// window centres a row, the median absolute difference between a pixel's
 /// three-column mean of grey and its `2·TEXTURE_HALF + 1`-column mean,
@@ -88,10 +99,9 @@ pub(super) fn texture_energy(px: &[u8], width: u32, u: u32, rows: std::ops::Rang
             prefix[k + 1] = prefix[k] + p[0] as u32 + p[1] as u32 + p[2] as u32;
         }
         for c in half..half + CENTRES {
-            let narrow = (prefix[c + 2] - prefix[c - 1]) as f32 / 3.0;
-            let wide = (prefix[c + half + 1] - prefix[c - half]) as f32 / CENTRES as f32;
+            let (pass, wide) = band_pass(&prefix, c);
             if wide > 0.0 {
-                keys[count] = ((narrow - wide).abs() / wide).to_bits();
+                keys[count] = (pass.abs() / wide).to_bits();
                 level += wide;
                 count += 1;
             }
