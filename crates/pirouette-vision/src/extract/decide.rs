@@ -272,7 +272,7 @@ impl<'a> Cues<'a> {
 }
 
 /// The mean of some colours, `None` when there are none.
-fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
+pub(super) fn mean_of(it: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     let (mut s, mut k) = ([0f32; 3], 0);
     for p in it {
         for (acc, x) in s.iter_mut().zip(p) {

@@ -28,6 +28,7 @@
 //! only bring a column's boundary nearer. The grain is sampled every other
 //! column.
 
+use super::decide::mean_of;
 use super::texture::{band_pass, band_pass_noise, TEXTURE_HALF};
 use super::RopExtractor;
 use crate::scan::smoothed;
@@ -326,15 +327,12 @@ fn searched(ex: &RopExtractor, u: usize, b: &ColumnBoundary) -> Option<Searched>
 /// no step of colour to place it closer, and the surface's colour is that
 /// of the two rows above its lowest.
 fn base_at(px: &[u8], width: u32, u: u32, v: u32) -> ColumnBoundary {
-    let rows = v.saturating_sub(3)..v.saturating_sub(1).max(1);
-    let k = rows.len().max(1) as f32;
-    let sum = rows.fold([0f32; 3], |acc, w| {
-        let p = smoothed(px, width, u, w);
-        [acc[0] + p[0], acc[1] + p[1], acc[2] + p[2]]
-    });
+    // Candidates lie at least MIN_ABOVE_ROWS (3) rows down the image.
+    let colour = mean_of((v.saturating_sub(3)..v.saturating_sub(1)).map(|w| smoothed(px, width, u, w)))
+        .and_then(ColourTag::from_rgb);
     ColumnBoundary::Obstacle {
         row: v as f32 - 0.5,
-        colour: ColourTag::from_rgb(sum.map(|x| x / k)),
+        colour,
     }
 }
 
