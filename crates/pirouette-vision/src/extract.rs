@@ -10,7 +10,7 @@ mod texture;
 use crate::config::{VisionConfig, VisionError};
 use crate::scan::{Classifier, Lanes};
 use crate::ColumnBoundary;
-use noise::{grey_noise_sigma, noise_sigma};
+use noise::{grey_noise_sigma, noise_sigma, Median};
 use pirouette_camera::{CameraModel, FloorTable};
 use pirouette_profile::filter;
 use pirouette_profile::{ColourTag, Rop};
@@ -314,7 +314,12 @@ impl RopExtractor {
     fn scan(&self, px: &[u8], sigma: f32) -> Vec<ColumnBoundary> {
         let mut out = self.scan_rows(px, sigma);
         if self.config.line_cue() {
-            line::add_bases(self, px, grey_noise_sigma(px, self.width, self.height), &mut out);
+            line::add_bases(
+                self,
+                px,
+                grey_noise_sigma(px, self.width, self.height, Median::Grouped),
+                &mut out,
+            );
         }
         out
     }

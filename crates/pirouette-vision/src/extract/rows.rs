@@ -44,7 +44,7 @@ impl<'a> RowScan<'a> {
     ) -> Self {
         let config = &ex.config;
         let grey_sigma = if config.texture_ratio > 0.0 {
-            super::grey_noise_sigma(px, ex.width, ex.height)
+            super::grey_noise_sigma(px, ex.width, ex.height, super::Median::Plain)
         } else {
             0.0
         };

@@ -490,7 +490,7 @@ fn the_floor_below_a_brightness_step_is_the_floor_followed() {
     let px = img.as_raw();
     let classifier = ex.classifier(noise_sigma(px, 320, 240));
     let both = classifier.scaled_both(ex.config.edge_fraction);
-    let grey_sigma = grey_noise_sigma(px, 320, 240);
+    let grey_sigma = grey_noise_sigma(px, 320, 240, Median::Plain);
     let test = (&both, ex.config.texture_ratio);
     let speck_level = speck.map(|c| c as f32);
     // Following the floor, the step is no wall's base.

@@ -25,7 +25,7 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
     let edge = classifier.scaled(ex.config.edge_fraction);
     let both = classifier.scaled_both(ex.config.edge_fraction);
     let faint = classifier.scaled_both(ex.config.faint_step_fraction);
-    let grey_sigma = grey_noise_sigma(px, m, n);
+    let grey_sigma = grey_noise_sigma(px, m, n, Median::Plain);
     let mut track = FloorTrack { level, trend };
     let (mut close_below, mut steady_below, mut faint_below) = (true, true, true);
     let mut v = n - seed_rows - 1;
