@@ -668,3 +668,72 @@ fn small_and_noisy_images_give_boundaries_within_the_image() {
         }
     }
 }
+
+/// A dim floor of mottled grain (cells of 3 × 3 pixels, ±`grain`) under
+/// sensor noise (±4 levels) meeting at row 60 a surface `shade` times as
+/// bright, smooth or (`grained_above`) with the floor's grain on it.
+fn dim_floor(shade: f32, grained_above: bool, grain: f32) -> image::RgbImage {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let cells: Vec<f32> = (0..107 * 80)
+        .map(|_| 1.0 - grain + 2.0 * grain * rng.random::<f32>())
+        .collect();
+    let noise: Vec<f32> = (0..320 * 240 * 3)
+        .map(|_| 8.0 * (rng.random::<f32>() - 0.5))
+        .collect();
+    let floor = [50.0f32, 47.0, 42.0];
+    image::RgbImage::from_fn(320, 240, |u, v| {
+        let g = cells[(v / 3 * 107 + u / 3) as usize];
+        let (shade, g) = if v < 60 {
+            (shade, if grained_above { g } else { 1.0 })
+        } else {
+            (1.0, g)
+        };
+        let i = ((v * 320 + u) * 3) as usize;
+        image::Rgb(std::array::from_fn(|k| {
+            (floor[k] * shade * g + noise[i + k]).round().clamp(0.0, 255.0) as u8
+        }))
+    })
+}
+
+/// On a dim floor whose grain (±6 %) stands barely above the noise, too
+/// little for the grain alone to end at a base, a smooth wall 10 % or 20 %
+/// darker steps in brightness along its base: the line cue finds the base
+/// within two rows in at least 265 of 320 columns (272 and 295 here;
+/// without the cue 5 and 204), and changes no column but there or a cell
+/// of grain (3 rows) below (1 column here). The same
+/// steps with the floor's grain above them (shade on the floor) change
+/// nothing.
+#[test]
+fn line_cue_finds_dim_walls_by_a_step_and_the_grain_ending() {
+    let boundaries = |img: &image::RgbImage, line_columns: u32| {
+        let config = VisionConfig {
+            line_columns,
+            ..VisionConfig::default()
+        };
+        RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap()
+    };
+    let within = |b: &ColumnBoundary, rows: f32| matches!(b, ColumnBoundary::Obstacle { row, .. } if (row - 60.0).abs() < rows);
+    let at_base = |b: &ColumnBoundary| within(b, 2.0);
+    for shade in [0.9, 0.8] {
+        let wall = dim_floor(shade, false, 0.06);
+        let (with, without) = (boundaries(&wall, 8), boundaries(&wall, 0));
+        let found = with.iter().filter(|b| at_base(b)).count();
+        let before = without.iter().filter(|b| at_base(b)).count();
+        assert!(
+            found >= 265 && found > before + 60,
+            "shade {shade}: the base in {found} columns ({before} without the cue)"
+        );
+        for (u, (a, b)) in with.iter().zip(&without).enumerate() {
+            assert!(
+                a == b || within(a, 3.5),
+                "shade {shade}, column {u}: {a:?} for {b:?}"
+            );
+        }
+        let shadow = dim_floor(shade, true, 0.06);
+        assert_eq!(
+            boundaries(&shadow, 8),
+            boundaries(&shadow, 0),
+            "shade {shade} on the floor's grain"
+        );
+    }
+}

@@ -17,22 +17,39 @@
 //! - the surface above it, over as many rows as an obstacle of the least
 //!   height spans there, is smooth: its grain within about two standard
 //!   errors of the noise's own;
-//! - the ratio of the two is at most `texture_ratio`;
+//! - the ratio of the two is at most `texture_ratio`.
 //!
-//! and a base is a line: the candidates of neighbouring columns must run
-//! on, row to row, over at least the pooled window. Within a column the
-//! base is put where the whole spread, noise included, falls most.
+//! Under dim light the floor's grain near the soft limit stands barely
+//! above the noise and rarely ends clearly enough; there a wall's base
+//! also steps in brightness, a step the column-wise texture test cannot
+//! judge when both sides are as smooth as the noise. Where the mean grey
+//! of the rows just above and just below a candidate, pooled along the
+//! line, differs by at least the faint step (a third of the brightness
+//! tolerance), floor grain as strong as the noise is enough, the surface
+//! above is judged over at least as many rows as the texture cue
+//! compares, and the ratio allowed is the texture cue's own for the step:
+//! `texture_ratio` at a full step, `faint_texture_ratio` at a faint one. A
+//! shade on the floor steps as much but keeps the grain above.
+//!
+//! A base is a line (see [`chain`]): the candidates of neighbouring
+//! columns, chained row to row across short gaps and the columns the scan
+//! settled, must hold at least the pooled window. Within a column the base
+//! is put where the brightness steps most, or without a step where the
+//! whole spread, noise included, falls most.
 //!
 //! Only columns whose scan found no base within the soft range limit are
 //! searched, and only the rows the scan took for floor, so the cue can
 //! only bring a column's boundary nearer. The grain is sampled every other
 //! column.
 
+mod chain;
+
 use super::decide::mean_of;
 use super::texture::{band_pass, band_pass_noise, TEXTURE_HALF};
 use super::RopExtractor;
 use crate::scan::smoothed;
 use crate::ColumnBoundary;
+use chain::{lines, on_the_line, Run};
 use pirouette_profile::ColourTag;
 
 /// Rows of floor below a candidate base whose grain is pooled.
@@ -61,6 +78,18 @@ const SLOPES: [f32; 5] = [-0.5, -0.25, 0.0, 0.25, 0.5];
 /// whose grain the noise hides, smooth at the band-pass's scale, has no
 /// grain to end at a wall's base.
 const GRAIN_OVER_NOISE: f32 = 1.5;
+
+/// How far the floor's grain below a candidate base must stand above the
+/// noise's part where a step of brightness runs along the line there too:
+/// as much as the noise's own. Such grain doubles the band-pass's
+/// variance, several standard errors of a variance pooled over the
+/// window's samples and 6 rows (each about a fifth of the noise's).
+const STEP_GRAIN_OVER_NOISE: f32 = 1.0;
+
+/// The fewest rows above a candidate base that are pooled where a step of
+/// brightness stands in for strong grain: as many as the texture cue
+/// compares.
+const TALL_ROWS: i32 = 6;
 
 /// The most grain beyond the noise, as a multiple of the noise's part,
 /// that a smooth surface above a candidate base may show: a spread at most
@@ -102,7 +131,7 @@ struct Grain {
 }
 
 /// Fields of [`Grain`].
-const FIELDS: usize = 4;
+const FIELDS: usize = 5;
 
 impl Grain {
     /// The relative horizontal band-pass (a three-column mean against a
@@ -127,7 +156,7 @@ impl Grain {
                     let i = u / STRIDE * rows + k;
                     let noise = band_pass_noise(grey_sigma, wide);
                     let e = (pass / wide).clamp(-CLIP_SIGMAS * noise, CLIP_SIGMAS * noise);
-                    fields[i] = [e, e * e, noise * noise, 1.0];
+                    fields[i] = [e, e * e, noise * noise, 1.0, wide];
                 }
             }
         }
@@ -250,7 +279,7 @@ impl Sheared {
 /// as vignetting, moves the band-pass's mean and is not grain), `None`
 /// where too little of the band was seen.
 fn beyond_noise(sums: [f32; FIELDS], pixels: f32) -> Option<Spread> {
-    let [e, e2, noise2, cover] = sums;
+    let [e, e2, noise2, cover, level] = sums;
     (cover >= MIN_COVER * pixels).then(|| {
         let mean = e / cover;
         let var = (e2 / cover - mean * mean).max(0.0);
@@ -259,6 +288,7 @@ fn beyond_noise(sums: [f32; FIELDS], pixels: f32) -> Option<Spread> {
             beyond2: (var - noise2).max(0.0),
             noise2,
             var,
+            level: level / cover,
         }
     })
 }
@@ -273,6 +303,8 @@ struct Spread {
     noise2: f32,
     /// All of it.
     var: f32,
+    /// The band's mean grey level (as a sum of the three channels).
+    level: f32,
 }
 
 impl Spread {
@@ -364,38 +396,22 @@ pub(super) fn add_bases(ex: &RopExtractor, px: &[u8], grey_sigma: f32, out: &mut
         grey_sigma.max(QUANTISATION_SIGMA),
     );
     let scores = Scores::of(ex, &grain, &sample_starts, hs);
-    let found: Vec<Option<i32>> = sample_starts
+    let runs: Vec<Vec<Run>> = sample_starts
         .iter()
         .enumerate()
-        .map(|(c, s)| scores.base(c, (*s)?.first, ex.config.texture_ratio))
+        .map(|(c, s)| s.map_or_else(Vec::new, |s| scores.runs(c, s.first)))
         .collect();
-    // A base is a line: only runs of neighbouring samples whose rows follow
-    // on are kept, as long as the pooled window at least. Each sample's row
-    // stands for its own column and the next.
-    let mut c = 0;
-    while c < ms {
-        let Some(mut prev) = found[c] else {
-            c += 1;
-            continue;
-        };
-        let mut end = c + 1;
-        while let Some(v) = found.get(end).copied().flatten() {
-            if (v - prev).abs() > MAX_ROW_STEP * STRIDE as i32 {
-                break;
-            }
-            prev = v;
-            end += 1;
-        }
-        if end - c > 2 * hs {
-            for (j, v) in (c..end).filter_map(|j| Some((j, found[j]?))) {
-                for u in j * STRIDE..((j + 1) * STRIDE).min(m) {
-                    if starts[u].is_some_and(|s| v >= s.first) {
-                        out[u] = base_at(px, ex.width, u as u32, v as u32);
-                    }
+    // Samples whose column the scan settled (a base within the limit, or no
+    // floor) neither carry a line nor break one.
+    let settled: Vec<bool> = sample_starts.iter().map(Option::is_none).collect();
+    for chain in lines(runs, &settled, hs) {
+        for (j, v) in on_the_line(&chain) {
+            for u in j * STRIDE..((j + 1) * STRIDE).min(m) {
+                if starts[u].is_some_and(|s| v >= s.first) {
+                    out[u] = base_at(px, ex.width, u as u32, v as u32);
                 }
             }
         }
-        c = end;
     }
 }
 
@@ -416,6 +432,12 @@ struct Scores {
     /// noise hides the surface's grain (the ratio above is 0 for a few rows
     /// about the base) it still falls most where the grain ends.
     sharpness: Vec<f32>,
+    /// The greatest relative step of brightness between the rows just
+    /// above and just below, over the slopes where the candidate's tests
+    /// hold.
+    step: Vec<f32>,
+    /// The least step of brightness that places a base.
+    faint_step: f32,
 }
 
 impl Scores {
@@ -430,10 +452,14 @@ impl Scores {
             samples: ms,
             ratio: vec![f32::INFINITY; rows * ms],
             sharpness: vec![f32::INFINITY; rows * ms],
+            step: vec![0.0; rows * ms],
+            faint_step: ex.config.faint_step_fraction * ex.config.min_brightness_step,
         };
         let first = starts.iter().position(Option::is_some).unwrap_or(0);
         let last = starts.iter().rposition(Option::is_some).unwrap_or(0);
         let width = (2 * hs + 1) as f32;
+        let full_step = ex.config.min_brightness_step;
+        let faint_step = ex.config.faint_step_fraction * full_step;
         for slope in SLOPES {
             let sheared = Sheared::new(grain, slope, hs, first..last + 1);
             let spread = |c: usize, a: i32, b: i32| {
@@ -462,43 +488,83 @@ impl Scores {
                     // The floor below must carry grain well beyond the
                     // noise, and so must its rows just below the base:
                     // grain that fades with distance is not a base.
-                    let grained = |s: &Spread| s.beyond_at_least(GRAIN_OVER_NOISE);
-                    let Some(near) = spread(c, v, v + STEP_ROWS).filter(grained) else {
+                    let Some(near) = spread(c, v, v + STEP_ROWS) else {
                         continue;
                     };
-                    let Some(below) = spread(c, v, v + FLOOR_ROWS).filter(grained) else {
+                    let Some(lowest) = spread(c, v - k.min(STEP_ROWS), v) else {
                         continue;
                     };
-                    // And the floor beyond: a speck's rim is grain only
-                    // where the speck lies.
-                    if spread(c, v + FLOOR_ROWS, v + 2 * FLOOR_ROWS)
-                        .filter(grained)
-                        .is_none()
-                    {
+                    let step = (lowest.level - near.level).abs() / near.level.max(1.0);
+                    let Some(below) = spread(c, v, v + FLOOR_ROWS) else {
                         continue;
-                    }
+                    };
+                    let Some(far) = spread(c, v + FLOOR_ROWS, v + 2 * FLOOR_ROWS) else {
+                        continue;
+                    };
+                    let grained = |k: f32| [near, below, far].iter().all(|s| s.beyond_at_least(k));
+                    // The most ratio allowed: the texture ratio on grain well
+                    // beyond the noise; with a step of brightness along the
+                    // line, on grain as strong as the noise, the texture ratio
+                    // at a full step and the faint ratio at a faint one.
+                    let (allowed, above) = if grained(GRAIN_OVER_NOISE) {
+                        (ex.config.texture_ratio, above)
+                    } else if !grained(STEP_GRAIN_OVER_NOISE) || step < faint_step {
+                        continue;
+                    } else {
+                        let tall = k.max(TALL_ROWS);
+                        if searched.under_base && v - tall < searched.first {
+                            continue;
+                        }
+                        let Some(above) =
+                            spread(c, v - tall, v).filter(|s| s.beyond_at_most(SMOOTH_OVER_NOISE))
+                        else {
+                            continue;
+                        };
+                        match step >= full_step {
+                            true => (ex.config.texture_ratio, above),
+                            false => (ex.config.faint_texture_ratio, above),
+                        }
+                    };
                     let i = (v - r0) as usize * ms + c;
-                    let r = (above.beyond2 / below.beyond2.min(near.beyond2)).sqrt();
+                    let r = (above.beyond2 / below.beyond2.min(near.beyond2)).sqrt() / allowed;
                     scores.ratio[i] = scores.ratio[i].min(r);
                     scores.sharpness[i] = scores.sharpness[i].min((above.var / near.var).sqrt());
+                    scores.step[i] = scores.step[i].max(step);
                 }
             }
         }
         scores
     }
 
-    /// The base of sample `c` searched from row `start` with the greatest
-    /// `ratio` of grain allowed: the nearest row (lowest in the image)
-    /// where the cue holds, then the sharpest of the rows above where it
-    /// holds on (above the base the rows just below a candidate are the
-    /// smooth surface's and it fails).
-    fn base(&self, c: usize, start: i32, ratio: f32) -> Option<i32> {
+    /// The runs of rows of sample `c`, searched from row `start`, where the
+    /// cue holds with the greatest `ratio` of grain allowed, each with its
+    /// sharpest row.
+    fn runs(&self, c: usize, start: i32) -> Vec<Run> {
         let at = |v: i32| (v - self.r0) as usize * self.samples + c;
-        let rows = start.max(self.r0 + MIN_ABOVE_ROWS)..=self.last_row;
-        let lowest = rows.clone().rev().find(|&v| self.ratio[at(v)] <= ratio)?;
-        (*rows.start()..=lowest)
-            .rev()
-            .take_while(|&v| self.ratio[at(v)] <= ratio)
-            .min_by(|&a, &b| self.sharpness[at(a)].total_cmp(&self.sharpness[at(b)]))
+        let mut out: Vec<Run> = Vec::new();
+        for v in start.max(self.r0 + MIN_ABOVE_ROWS)..=self.last_row {
+            if self.ratio[at(v)] > 1.0 {
+                continue;
+            }
+            match out.last_mut() {
+                Some(r) if r.hi + 1 == v => {
+                    r.hi = v;
+                    let (a, b) = (at(v), at(r.sharpest));
+                    // A step of brightness places the base where it is
+                    // greatest; without one, where the spread falls most.
+                    let sharper = match (self.step[a] >= self.faint_step, self.step[b] >= self.faint_step) {
+                        (true, true) => self.step[a] > self.step[b],
+                        (true, false) => true,
+                        (false, true) => false,
+                        (false, false) => self.sharpness[a] < self.sharpness[b],
+                    };
+                    if sharper {
+                        r.sharpest = v;
+                    }
+                }
+                _ => out.push(Run { hi: v, sharpest: v }),
+            }
+        }
+        out
     }
 }
