@@ -189,6 +189,16 @@ fn faint_steps_of_smooth_walls_are_found_by_their_texture() {
     );
 }
 
+/// The boundaries of `img` with the line cue's window `line_columns` (0:
+/// the cue off), every other setting the default.
+fn line_boundaries(img: &image::RgbImage, line_columns: u32) -> Vec<ColumnBoundary> {
+    let config = VisionConfig {
+        line_columns,
+        ..VisionConfig::default()
+    };
+    RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap()
+}
+
 /// A floor of mottled grain (cells of 3 × 3 pixels, ±10 %) under sensor
 /// noise (±2 levels) whose grain ends at row 60, below a smooth surface of
 /// the floor's own colour and brightness (`wall`), or runs on to the top.
@@ -221,17 +231,10 @@ fn mottled_floor(wall: bool) -> image::RgbImage {
 /// changes nothing.
 #[test]
 fn line_cue_finds_smooth_walls_by_the_grain_ending() {
-    let boundaries = |img: &image::RgbImage, line_columns: u32| {
-        let config = VisionConfig {
-            line_columns,
-            ..VisionConfig::default()
-        };
-        RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap()
-    };
     let within = |b: &ColumnBoundary, rows: f32| matches!(b, ColumnBoundary::Obstacle { row, .. } if (row - 59.5).abs() < rows);
     let at_base = |b: &ColumnBoundary| within(b, 1.5);
     let wall = mottled_floor(true);
-    let (with, without) = (boundaries(&wall, 8), boundaries(&wall, 0));
+    let (with, without) = (line_boundaries(&wall, 8), line_boundaries(&wall, 0));
     let found = with.iter().filter(|b| at_base(b)).count();
     assert!(found >= 270, "the wall's base in {found} of 320 columns");
     assert_eq!(
@@ -247,8 +250,8 @@ fn line_cue_finds_smooth_walls_by_the_grain_ending() {
     }
     let floor = mottled_floor(false);
     assert_eq!(
-        boundaries(&floor, 8),
-        boundaries(&floor, 0),
+        line_boundaries(&floor, 8),
+        line_boundaries(&floor, 0),
         "a grained floor is floor"
     );
     let too_wide = VisionConfig {
@@ -705,18 +708,11 @@ fn dim_floor(shade: f32, grained_above: bool, grain: f32) -> image::RgbImage {
 /// nothing.
 #[test]
 fn line_cue_finds_dim_walls_by_a_step_and_the_grain_ending() {
-    let boundaries = |img: &image::RgbImage, line_columns: u32| {
-        let config = VisionConfig {
-            line_columns,
-            ..VisionConfig::default()
-        };
-        RopExtractor::new(&cam(), 0.9, config).boundaries(img).unwrap()
-    };
     let within = |b: &ColumnBoundary, rows: f32| matches!(b, ColumnBoundary::Obstacle { row, .. } if (row - 60.0).abs() < rows);
     let at_base = |b: &ColumnBoundary| within(b, 2.0);
     for shade in [0.9, 0.8] {
         let wall = dim_floor(shade, false, 0.06);
-        let (with, without) = (boundaries(&wall, 8), boundaries(&wall, 0));
+        let (with, without) = (line_boundaries(&wall, 8), line_boundaries(&wall, 0));
         let found = with.iter().filter(|b| at_base(b)).count();
         let before = without.iter().filter(|b| at_base(b)).count();
         assert!(
@@ -731,8 +727,8 @@ fn line_cue_finds_dim_walls_by_a_step_and_the_grain_ending() {
         }
         let shadow = dim_floor(shade, true, 0.06);
         assert_eq!(
-            boundaries(&shadow, 8),
-            boundaries(&shadow, 0),
+            line_boundaries(&shadow, 8),
+            line_boundaries(&shadow, 0),
             "shade {shade} on the floor's grain"
         );
     }
