@@ -120,7 +120,8 @@ const STRIDE: usize = 2;
 /// Per sample of rows `r0..height`, the fields pooled along lines: the
 /// signed band-pass of the grey level (clipped), its square, the variance
 /// noise alone gives it there, and whether it exists (columns within
-/// `TEXTURE_HALF` of the image's sides have none).
+/// `TEXTURE_HALF` of the image's sides have none); and the grey level,
+/// read along a line only where a candidate needs it.
 struct Grain {
     r0: i32,
     rows: i32,
@@ -128,10 +129,13 @@ struct Grain {
     /// Column-major (a sample's rows in turn), the fields of a sample
     /// together.
     fields: Vec<[f32; FIELDS]>,
+    /// As `fields`, the band-pass's wide mean (a sum of the three
+    /// channels), 0 where there is none.
+    level: Vec<f32>,
 }
 
 /// Fields of [`Grain`].
-const FIELDS: usize = 5;
+const FIELDS: usize = 4;
 
 impl Grain {
     /// The relative horizontal band-pass (a three-column mean against a
@@ -144,6 +148,7 @@ impl Grain {
         // Samples at every STRIDE-th image column.
         let m = (width as usize).div_ceil(STRIDE);
         let mut fields = vec![[0f32; FIELDS]; rows * m];
+        let mut level = vec![0f32; rows * m];
         let mut prefix = vec![0u32; width as usize + 1];
         for (k, v) in (r0..height).enumerate() {
             let row = &px[(v * width) as usize * 3..((v + 1) * width) as usize * 3];
@@ -156,7 +161,8 @@ impl Grain {
                     let i = u / STRIDE * rows + k;
                     let noise = band_pass_noise(grey_sigma, wide);
                     let e = (pass / wide).clamp(-CLIP_SIGMAS * noise, CLIP_SIGMAS * noise);
-                    fields[i] = [e, e * e, noise * noise, 1.0, wide];
+                    fields[i] = [e, e * e, noise * noise, 1.0];
+                    level[i] = wide;
                 }
             }
         }
@@ -165,6 +171,7 @@ impl Grain {
             rows: rows as i32,
             width: m,
             fields,
+            level,
         }
     }
 
@@ -272,6 +279,26 @@ impl Sheared {
         let at = c * (self.rows as usize + 1);
         Some(sub(self.sums[at + b as usize], self.sums[at + a as usize]))
     }
+
+    /// The mean grey level (a sum of the three channels) of `grain` over
+    /// image rows `a..b` at centre sample `c` along this slope's line
+    /// over `2·h + 1` samples, `None` where too little of it was seen.
+    /// Summed where asked: few candidates get so far.
+    fn level(&self, grain: &Grain, h: usize, c: usize, a: i32, b: i32) -> Option<f32> {
+        let (mut sum, mut seen) = (0f32, 0usize);
+        let n = grain.rows as usize;
+        for j in c.saturating_sub(h)..(c + h + 1).min(grain.width) {
+            // Sample j's rows of the line, as indices into its column.
+            let d = self.shift[j] - self.shift[c] - grain.r0;
+            let (lo, hi) = ((a + d).clamp(0, grain.rows), (b + d).clamp(0, grain.rows));
+            for &x in &grain.level[j * n + lo as usize..j * n + hi.max(lo) as usize] {
+                sum += x;
+                seen += (x > 0.0) as usize;
+            }
+        }
+        let expected = (2 * h + 1) * (b - a).max(0) as usize;
+        (seen > 0 && seen as f32 >= MIN_COVER * expected as f32).then(|| sum / seen as f32)
+    }
 }
 
 /// The pooled grain of a band of `pixels` from its field sums: the
@@ -279,7 +306,7 @@ impl Sheared {
 /// as vignetting, moves the band-pass's mean and is not grain), `None`
 /// where too little of the band was seen.
 fn beyond_noise(sums: [f32; FIELDS], pixels: f32) -> Option<Spread> {
-    let [e, e2, noise2, cover, level] = sums;
+    let [e, e2, noise2, cover] = sums;
     (cover >= MIN_COVER * pixels).then(|| {
         let mean = e / cover;
         let var = (e2 / cover - mean * mean).max(0.0);
@@ -288,7 +315,6 @@ fn beyond_noise(sums: [f32; FIELDS], pixels: f32) -> Option<Spread> {
             beyond2: (var - noise2).max(0.0),
             noise2,
             var,
-            level: level / cover,
         }
     })
 }
@@ -303,8 +329,6 @@ struct Spread {
     noise2: f32,
     /// All of it.
     var: f32,
-    /// The band's mean grey level (as a sum of the three channels).
-    level: f32,
 }
 
 impl Spread {
@@ -485,30 +509,40 @@ impl Scores {
                     else {
                         continue;
                     };
-                    // The floor below must carry grain well beyond the
-                    // noise, and so must its rows just below the base:
-                    // grain that fades with distance is not a base.
-                    let Some(near) = spread(c, v, v + STEP_ROWS) else {
+                    // The floor below must carry grain, and so must its
+                    // rows just below the base (grain that fades with
+                    // distance is not a base) and the rows beyond (a
+                    // speck's rim is grain only where the speck lies): at
+                    // least as much as the noise's for any rule (tested
+                    // first: most rows fail here).
+                    let grained =
+                        |a: i32, b: i32| spread(c, a, b).filter(|s| s.beyond_at_least(STEP_GRAIN_OVER_NOISE));
+                    let Some(near) = grained(v, v + STEP_ROWS) else {
                         continue;
                     };
-                    let Some(lowest) = spread(c, v - k.min(STEP_ROWS), v) else {
+                    let Some(below) = grained(v, v + FLOOR_ROWS) else {
                         continue;
                     };
-                    let step = (lowest.level - near.level).abs() / near.level.max(1.0);
-                    let Some(below) = spread(c, v, v + FLOOR_ROWS) else {
+                    let Some(far) = grained(v + FLOOR_ROWS, v + 2 * FLOOR_ROWS) else {
                         continue;
                     };
-                    let Some(far) = spread(c, v + FLOOR_ROWS, v + 2 * FLOOR_ROWS) else {
+                    let (Some(lowest), Some(first)) = (
+                        sheared.level(grain, hs, c, v - k.min(STEP_ROWS), v),
+                        sheared.level(grain, hs, c, v, v + STEP_ROWS),
+                    ) else {
                         continue;
                     };
-                    let grained = |k: f32| [near, below, far].iter().all(|s| s.beyond_at_least(k));
+                    let step = (lowest - first).abs() / first.max(1.0);
+                    let strong = [near, below, far]
+                        .iter()
+                        .all(|s| s.beyond_at_least(GRAIN_OVER_NOISE));
                     // The most ratio allowed: the texture ratio on grain well
                     // beyond the noise; with a step of brightness along the
                     // line, on grain as strong as the noise, the texture ratio
                     // at a full step and the faint ratio at a faint one.
-                    let (allowed, above) = if grained(GRAIN_OVER_NOISE) {
+                    let (allowed, above) = if strong {
                         (ex.config.texture_ratio, above)
-                    } else if !grained(STEP_GRAIN_OVER_NOISE) || step < faint_step {
+                    } else if step < faint_step {
                         continue;
                     } else {
                         let tall = k.max(TALL_ROWS);
