@@ -449,8 +449,9 @@ struct Scores {
     /// Samples a row.
     samples: usize,
     /// Per row and sample: the least ratio of the grain above to the
-    /// floor's below over the slopes where the candidate's tests hold
-    /// (infinite elsewhere).
+    /// floor's below, as a share of the most the candidate's rule allows
+    /// (at most 1 where the cue holds), over the slopes where the
+    /// candidate's tests hold (infinite elsewhere).
     ratio: Vec<f32>,
     /// The least ratio of the whole spreads, noise included: where the
     /// noise hides the surface's grain (the ratio above is 0 for a few rows
@@ -571,8 +572,7 @@ impl Scores {
     }
 
     /// The runs of rows of sample `c`, searched from row `start`, where the
-    /// cue holds with the greatest `ratio` of grain allowed, each with its
-    /// sharpest row.
+    /// cue holds, each with the row its base is put at.
     fn runs(&self, c: usize, start: i32) -> Vec<Run> {
         let at = |v: i32| (v - self.r0) as usize * self.samples + c;
         let mut out: Vec<Run> = Vec::new();
