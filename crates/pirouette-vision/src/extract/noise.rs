@@ -95,8 +95,9 @@ fn grouped_median(x: &mut [f32], h: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
 
     /// The grouped median interpolates within the median's lattice cell:
     /// of 0, 0, ⅓, ⅓, ⅓, ⅓ the half-way count falls a quarter into the
@@ -110,31 +111,41 @@ mod tests {
         assert!((grouped_median(&mut b, t) - t).abs() < 1e-6);
     }
 
-    /// A flat grey image with independent normal noise of standard
+    /// Flat grey images with independent normal noise of standard
     /// deviation `s` in each 8-bit channel: the noise of the channels'
-    /// mean, rounding included, is √((s² + 1/12) / 3), and the estimate
-    /// is within 4 % of it at every level from 0.6 to 2.4, where a plain
-    /// median of the second differences moves in steps of 0.2 (up to 13 %
-    /// of it).
+    /// mean, rounding included, is √((s² + 1/12) / 3). Over 16 images at
+    /// each level from 0.6 to 2.4, the estimate's mean is within 3 % of
+    /// it, and its error (root mean square over all the images) at most
+    /// 0.7 times the plain median's, which moves in steps of 0.2 (up to
+    /// 13 % of it). One image's estimate, from about 400 second
+    /// differences, still varies by some 5 %.
     #[test]
     fn grey_noise_is_measured_between_the_quantisation_steps() {
-        let (w, h) = (320u32, 240u32);
+        // Only the bottom 16 rows are read.
+        let (w, h) = (320u32, 24u32);
+        let (mut grouped_sq, mut plain_sq, mut n) = (0f32, 0f32, 0f32);
         for s in [0.6f32, 0.9, 1.2, 1.5, 1.8, 2.1, 2.4] {
-            let mut rng = ChaCha8Rng::seed_from_u64(11);
-            let px: Vec<u8> = (0..w * h * 3)
-                .map(|_| {
-                    // Box-Muller.
-                    let (a, b): (f32, f32) = (rng.random::<f32>().max(1e-9), rng.random());
-                    let n = (-2.0 * a.ln()).sqrt() * (std::f32::consts::TAU * b).cos();
-                    (100.0 + s * n).round() as u8
-                })
-                .collect();
+            let normal = Normal::new(100.0f32, s).unwrap();
             let truth = ((s * s + 1.0 / 12.0) / 3.0).sqrt();
-            let found = grey_noise_sigma(&px, w, h, Median::Grouped);
-            assert!(
-                (found / truth - 1.0).abs() < 0.04,
-                "s {s}: found {found}, truth {truth}"
-            );
+            let mut sum = 0f32;
+            for seed in 0..16 {
+                let mut rng = ChaCha8Rng::seed_from_u64(seed);
+                let px: Vec<u8> = (0..w * h * 3)
+                    .map(|_| normal.sample(&mut rng).round() as u8)
+                    .collect();
+                let grouped = grey_noise_sigma(&px, w, h, Median::Grouped) / truth - 1.0;
+                let plain = grey_noise_sigma(&px, w, h, Median::Plain) / truth - 1.0;
+                sum += grouped;
+                grouped_sq += grouped * grouped;
+                plain_sq += plain * plain;
+                n += 1.0;
+            }
+            assert!((sum / 16.0).abs() < 0.03, "s {s}: mean error {}", sum / 16.0);
         }
+        let (grouped, plain) = ((grouped_sq / n).sqrt(), (plain_sq / n).sqrt());
+        assert!(
+            grouped <= 0.7 * plain,
+            "rms error {grouped} against the plain median's {plain}"
+        );
     }
 }
