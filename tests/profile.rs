@@ -142,3 +142,44 @@ fn eval_profile_reports_both_models() {
             < lines[1]["median_abs_rel_error"].as_f64().unwrap()
     );
 }
+
+/// Images rendered through a barrel lens profile as well as those of the
+/// ideal lens when the manifest names the lens, and measurably worse when
+/// it is left out: profiles use the undistorted geometry.
+#[test]
+fn a_lens_named_in_the_manifest_undoes_its_distortion() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut scene = pirouette::sim::Scene::builtin("field-pirouette").unwrap();
+    scene.camera.lens = Some(pirouette::io::LensSpec {
+        model: "plumb_bob".into(),
+        d: vec![-0.25, 0.05, 0.0, 0.0, 0.0],
+    });
+    let root = dir.path().join("barrel");
+    pirouette::sim::render_dataset(&scene, 1, &root, |_, _| {}).unwrap();
+    let with_lens = scores(&root, ModelKind::Pinhole);
+    let ideal = scores(&rendered("field-pirouette", 1), ModelKind::Pinhole);
+    // The same scene through the ideal lens, within a point of each figure.
+    eprintln!("with the lens {with_lens:?}\nideal {ideal:?}");
+    assert!(with_lens.truth_bins > 300, "{with_lens:?}");
+    assert!(
+        with_lens.within_10pct >= ideal.within_10pct - 0.01,
+        "{with_lens:?} vs {ideal:?}"
+    );
+    assert!(with_lens.median_abs_rel_error <= ideal.median_abs_rel_error + 0.002);
+    // The lens left out: the same images read as an ideal pinhole.
+    let path = root.join("dataset.json");
+    let mut manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    manifest["camera"]["pinhole"]
+        .as_object_mut()
+        .unwrap()
+        .remove("distortion")
+        .unwrap();
+    std::fs::write(&path, manifest.to_string()).unwrap();
+    let without = scores(&root, ModelKind::Pinhole);
+    eprintln!("lens left out {without:?}");
+    assert!(
+        without.median_abs_rel_error > 3.0 * with_lens.median_abs_rel_error,
+        "{without:?} vs {with_lens:?}"
+    );
+}

@@ -76,6 +76,10 @@ pub fn summary(ds: &Dataset) -> Result<()> {
         match f.motion {
             Some(Motion::Turn { .. }) => turns += 1,
             Some(Motion::Forward { forward }) => forward_m += forward,
+            Some(Motion::Move { relative }) => {
+                turns += usize::from(relative.turn_deg != 0.0);
+                forward_m += relative.forward.hypot(relative.left);
+            }
             None => {}
         }
     }

@@ -48,6 +48,7 @@ fn the_calibration_overlay_draws_the_grid_where_the_model_projects_it() {
         tilt_rad: 25f64.to_radians(),
         mount_forward_m: 0.01,
         mount_left_m: 0.0,
+        distortion: Default::default(),
     };
     let black = RgbImage::new(320, 240);
     let img = calibration_overlay(&camera, &black, 1.8);

@@ -3,7 +3,10 @@
 //! - [`IpmModel`]: the paper's inverse perspective mapping from four tape
 //!   measurements `b, h, d, w` (eq. 1-5), angle-linear in the pixel index.
 //! - [`PinholeModel`]: an exact pinhole camera with height, downward tilt,
-//!   intrinsics and mount offset; both directions.
+//!   intrinsics, mount offset and lens distortion; both directions.
+//! - [`Distortion`]: the lens models (radial-tangential, equidistant
+//!   fisheye); [`Calibration`]: intrinsics and lens read from a ROS
+//!   `camera_info` or OpenCV calibration YAML.
 //! - [`CameraModel`]: what both provide; [`Camera`] holds either.
 //! - [`FloorTable`]: per-pixel lookup of robot-frame floor coordinates and of
 //!   polar (range, bearing) from the robot centre, built once per camera.
@@ -15,7 +18,7 @@
 //! use pirouette_camera::{CameraModel, PinholeModel, FloorTable};
 //! let cam = PinholeModel { width: 320, height: 240, fx: 277.1, fy: 277.1,
 //!     cx: 159.5, cy: 119.5, height_m: 0.1, tilt_rad: 25f64.to_radians(),
-//!     mount_forward_m: 0.0, mount_left_m: 0.0 };
+//!     mount_forward_m: 0.0, mount_left_m: 0.0, distortion: Default::default() };
 //! let p = cam.pixel_to_floor(159.5, 119.5).ok_or("centre pixel sees no floor")?;
 //! assert!((p.x - 0.1 / 25f64.to_radians().tan()).abs() < 1e-9);
 //! let table = FloorTable::new(&cam);
@@ -25,11 +28,15 @@
 #![deny(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+mod calibration;
 mod ipm;
+mod lens;
 mod pinhole;
 mod table;
 
+pub use calibration::{Calibration, CalibrationError};
 pub use ipm::{IpmMeasurements, IpmModel};
+pub use lens::Distortion;
 pub use pinhole::PinholeModel;
 pub use table::{FloorTable, Polar};
 

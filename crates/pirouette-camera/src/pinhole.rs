@@ -1,10 +1,12 @@
 //! The exact pinhole camera model.
 
-use crate::{CameraModel, IpmMeasurements, Point3};
+use crate::{CameraModel, Distortion, IpmMeasurements, Point3};
 use pirouette_geom::Point2;
 
 /// A pinhole camera looking forward and tilted down, standing at a mount
-/// offset from the robot's rotation centre. No lens distortion.
+/// offset from the robot's rotation centre, seen through a lens model
+/// ([`Distortion`]; [`Distortion::None`] for an ideal pinhole, whose
+/// every figure is the same to the bit as without a lens model).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PinholeModel {
     /// Image width `m`, pixels.
@@ -27,6 +29,8 @@ pub struct PinholeModel {
     pub mount_forward_m: f64,
     /// Camera offset to the left of the rotation centre, metres.
     pub mount_left_m: f64,
+    /// The lens: how it bends rays on their way to the pixels.
+    pub distortion: Distortion,
 }
 
 impl PinholeModel {
@@ -39,16 +43,19 @@ impl PinholeModel {
         (right, down, forward)
     }
 
-    /// The ray direction (robot frame, not normalised) through pixel `(u, v)`.
-    pub fn ray(&self, u: f64, v: f64) -> [f64; 3] {
+    /// The ray direction (robot frame, not normalised) through pixel `(u, v)`,
+    /// the lens's bending undone; `None` where the lens model has no ray
+    /// for the pixel (see [`Distortion::undistort`]).
+    pub fn ray(&self, u: f64, v: f64) -> Option<[f64; 3]> {
         let (r, d, f) = self.axes();
-        let xc = (u - self.cx) / self.fx;
-        let yc = (v - self.cy) / self.fy;
-        [
+        let (xc, yc) = self
+            .distortion
+            .undistort((u - self.cx) / self.fx, (v - self.cy) / self.fy)?;
+        Some([
             xc * r[0] + yc * d[0] + f[0],
             xc * r[1] + yc * d[1] + f[1],
             xc * r[2] + yc * d[2] + f[2],
-        ]
+        ])
     }
 
     /// The optical centre in the robot frame.
@@ -85,7 +92,7 @@ impl CameraModel for PinholeModel {
     }
 
     fn pixel_to_floor(&self, u: f64, v: f64) -> Option<Point2> {
-        let ray = self.ray(u, v);
+        let ray = self.ray(u, v)?;
         // Rays that do not descend never reach the floor (horizon and above).
         if ray[2] >= -1e-12 {
             return None;
@@ -106,7 +113,12 @@ impl CameraModel for PinholeModel {
         if zc <= 1e-12 {
             return None;
         }
-        Some((self.cx + self.fx * dot(r) / zc, self.cy + self.fy * dot(d) / zc))
+        if self.distortion.is_none() {
+            // The ideal pinhole's arithmetic, as it always was.
+            return Some((self.cx + self.fx * dot(r) / zc, self.cy + self.fy * dot(d) / zc));
+        }
+        let (x, y) = self.distortion.distort(dot(r) / zc, dot(d) / zc);
+        Some((self.cx + self.fx * x, self.cy + self.fy * y))
     }
 }
 
@@ -128,6 +140,7 @@ mod tests {
             tilt_rad: 25f64.to_radians(),
             mount_forward_m,
             mount_left_m,
+            distortion: Default::default(),
         }
     }
 
@@ -137,6 +150,35 @@ mod tests {
         let p = c.pixel_to_floor(c.cx, c.cy).unwrap();
         assert!((p.x - 0.1 / 25f64.to_radians().tan()).abs() < 1e-12);
         assert!(p.y.abs() < 1e-12);
+    }
+
+    /// A lens with barrel distortion (k1 < 0) pulls the image corners in:
+    /// the corner pixel looks further out than the ideal pinhole's, and
+    /// the principal point not at all.
+    #[test]
+    fn barrel_distortion_widens_the_corner_ray() {
+        let ideal = cam(0.0, 0.0);
+        let barrel = PinholeModel {
+            distortion: Distortion::RadialTangential {
+                k1: -0.2,
+                k2: 0.0,
+                p1: 0.0,
+                p2: 0.0,
+                k3: 0.0,
+            },
+            ..ideal.clone()
+        };
+        let a = ideal.pixel_to_floor(0.0, 239.0).unwrap();
+        let b = barrel.pixel_to_floor(0.0, 239.0).unwrap();
+        assert!(
+            b.y > a.y,
+            "barrel corner bearing {} vs ideal {}",
+            b.y.atan2(b.x),
+            a.y.atan2(a.x)
+        );
+        let c0 = ideal.pixel_to_floor(ideal.cx, ideal.cy).unwrap();
+        let c1 = barrel.pixel_to_floor(ideal.cx, ideal.cy).unwrap();
+        assert_eq!(c0, c1);
     }
 
     #[test]
@@ -196,6 +238,21 @@ mod tests {
             let p = c.pixel_to_floor(u, v).unwrap();
             let (u2, v2) = c.floor_to_pixel(p).unwrap();
             prop_assert!((u - u2).abs() < 1e-7 && (v - v2).abs() < 1e-7);
+        }
+
+        /// Through TUM freiburg2's lens (at 320x240), pixels map to the
+        /// floor and back; the floor point differs from the ideal lens's
+        /// where the lens bends the ray.
+        #[test]
+        fn distorted_pixel_floor_pixel_round_trip(u in 0.0f64..319.0, v in 130.0f64..239.0) {
+            let c = PinholeModel {
+                fx: 260.45, fy: 260.5, cx: 162.3, cy: 124.6, height_m: 0.56, tilt_rad: 6f64.to_radians(),
+                distortion: Distortion::RadialTangential { k1: 0.2312, k2: -0.7849, p1: -0.0033, p2: -0.0001, k3: 0.9172 },
+                ..cam(0.0, 0.0)
+            };
+            let p = c.pixel_to_floor(u, v).unwrap();
+            let (u2, v2) = c.floor_to_pixel(p).unwrap();
+            prop_assert!((u - u2).abs() < 1e-6 && (v - v2).abs() < 1e-6, "({u}, {v}) -> ({u2}, {v2})");
         }
 
         #[test]

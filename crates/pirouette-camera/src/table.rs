@@ -194,6 +194,7 @@ mod tests {
             tilt_rad: 0.2,
             mount_forward_m: 0.01,
             mount_left_m: 0.0,
+            distortion: Default::default(),
         }
     }
 

@@ -1,7 +1,7 @@
 //! The `rop-dataset/1` camera dataset format.
 
 use crate::{atomic_write, atomic_write_with, IoError, World};
-use pirouette_camera::{Camera, IpmMeasurements, IpmModel, ModelKind, PinholeModel};
+use pirouette_camera::{Camera, Distortion, IpmMeasurements, IpmModel, ModelKind, PinholeModel};
 use pirouette_geom::Pose2;
 use pirouette_profile::Rop;
 use serde::{Deserialize, Serialize};
@@ -57,6 +57,36 @@ pub struct PinholeSpec {
     pub height: f64,
     /// Downward tilt of the optical axis, degrees.
     pub tilt_deg: f64,
+    /// The lens distortion, as ROS `camera_info` names it; none when
+    /// absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<LensSpec>,
+}
+
+/// A lens model as stored in the manifest: ROS `camera_info`'s
+/// `distortion_model` and `D`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LensSpec {
+    /// `plumb_bob` (radial-tangential: `k1 k2 p1 p2 k3`) or `equidistant`
+    /// (fisheye: `k1 k2 k3 k4`).
+    pub model: String,
+    /// The coefficients in ROS order.
+    pub d: Vec<f64>,
+}
+
+impl LensSpec {
+    /// The lens model, or what is wrong with it.
+    pub fn distortion(&self) -> Result<Distortion, String> {
+        Distortion::from_named(&self.model, &self.d)
+    }
+
+    /// The spec of a lens model; `None` for the ideal pinhole.
+    pub fn of(d: &Distortion) -> Option<Self> {
+        (!d.is_none()).then(|| Self {
+            model: d.ros_name().to_string(),
+            d: d.coefficients(),
+        })
+    }
 }
 
 /// Camera offset from the rotation centre, robot frame, metres.
@@ -88,6 +118,15 @@ pub struct FrameSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Motion {
+    /// A general move, as odometry gives it: the robot's pose at this
+    /// frame in the robot frame of the previous one (a turn and a shift
+    /// together). A turn of `a` then a straight move of `s` is
+    /// `forward = s cos a, left = s sin a, turn_deg = a`.
+    Move {
+        /// The move itself, in the previous frame.
+        #[serde(rename = "move")]
+        relative: MoveSpec,
+    },
     /// In-place turn, degrees counter-clockwise.
     Turn {
         /// The commanded angle.
@@ -98,6 +137,40 @@ pub enum Motion {
         /// The commanded distance.
         forward: f64,
     },
+}
+
+/// A relative pose as stored in a general move: metres and degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MoveSpec {
+    /// Ahead of the previous pose, metres.
+    pub forward: f64,
+    /// To the left of the previous pose, metres.
+    pub left: f64,
+    /// Counter-clockwise turn, degrees.
+    pub turn_deg: f64,
+}
+
+impl Motion {
+    /// The motion as a relative pose in the previous frame (a turn in
+    /// place about the robot centre, a straight move along its heading).
+    pub fn relative_pose(&self) -> Pose2 {
+        match *self {
+            Motion::Move { relative } => Pose2::from_deg(relative.forward, relative.left, relative.turn_deg),
+            Motion::Turn { turn_deg } => Pose2::new(0.0, 0.0, turn_deg.to_radians()),
+            Motion::Forward { forward } => Pose2::new(forward, 0.0, 0.0),
+        }
+    }
+
+    /// The general move of a relative pose.
+    pub fn from_relative(p: &Pose2) -> Self {
+        Motion::Move {
+            relative: MoveSpec {
+                forward: p.x,
+                left: p.y,
+                turn_deg: p.theta_deg(),
+            },
+        }
+    }
 }
 
 /// A pose as stored in files: metres and degrees.
@@ -198,6 +271,13 @@ impl CameraSpec {
             tilt_rad: p.tilt_deg.to_radians(),
             mount_forward_m: mount.forward,
             mount_left_m: mount.left,
+            // A lens that does not read was refused when the manifest was
+            // checked.
+            distortion: p
+                .distortion
+                .as_ref()
+                .and_then(|l| l.distortion().ok())
+                .unwrap_or_default(),
         })
     }
 
@@ -313,6 +393,11 @@ impl CameraSpec {
                 p.height
             ));
         }
+        if let Some(lens) = &p.distortion {
+            if let Err(e) = lens.distortion() {
+                return Some(format!("camera.pinhole.distortion: {e}"));
+            }
+        }
         None
     }
 }
@@ -376,10 +461,16 @@ pub mod limits {
 /// A dataset opened from disk: its folder and checked manifest.
 #[derive(Debug, Clone)]
 pub struct Dataset {
-    /// The dataset folder.
+    /// The dataset folder: the folder frames' image paths are relative to.
     pub root: PathBuf,
     /// The manifest.
     pub manifest: Manifest,
+    /// The file that describes it: `dataset.json`, or an image folder's
+    /// rig file.
+    pub source: PathBuf,
+    /// Each frame's time, seconds, where the input stamps its frames (an
+    /// image folder); empty otherwise.
+    pub stamps: Vec<f64>,
 }
 
 impl Dataset {
@@ -421,8 +512,29 @@ fn is_safe_relative(p: &str) -> bool {
 impl Dataset {
     /// Opens the dataset in folder `root` (or whose `dataset.json` is
     /// `root`), checking every field of the manifest and that every frame's
-    /// image exists.
+    /// image exists. An image folder (a folder with a
+    /// [`RIG_FILE`](crate::RIG_FILE) and no `dataset.json`, or the rig
+    /// file itself) is read through its rig ([`ImageFolder`](crate::ImageFolder)).
     pub fn open(root: &Path) -> Result<Self, IoError> {
+        let rig = if root.is_file() && root.file_name() != Some(std::ffi::OsStr::new("dataset.json")) {
+            Some(root.to_owned())
+        } else if root.is_dir() && !root.join("dataset.json").exists() && root.join(crate::RIG_FILE).is_file()
+        {
+            Some(root.join(crate::RIG_FILE))
+        } else {
+            None
+        };
+        if let Some(rig) = rig.filter(|r| r.extension().is_some_and(|e| e == "json")) {
+            let folder = crate::ImageFolder::open(&rig)?;
+            let ds = Dataset {
+                root: folder.root,
+                manifest: folder.manifest,
+                source: rig.clone(),
+                stamps: folder.stamps,
+            };
+            ds.check(&rig)?;
+            return Ok(ds);
+        }
         let root = if root.is_file() {
             // A manifest names its dataset; any other file is no dataset.
             if root.file_name() != Some(std::ffi::OsStr::new("dataset.json")) {
@@ -459,7 +571,13 @@ impl Dataset {
             path: path.clone(),
             source: e,
         })?;
-        let ds = Dataset { root, manifest };
+        let source = path.clone();
+        let ds = Dataset {
+            root,
+            manifest,
+            source,
+            stamps: Vec::new(),
+        };
         ds.check(&path)?;
         Ok(ds)
     }
@@ -525,6 +643,24 @@ impl Dataset {
             {
                 return Some("motion is not finite".into())
             }
+            Some(Motion::Move { relative: m })
+                if !(m.forward.is_finite() && m.left.is_finite() && m.turn_deg.is_finite()) =>
+            {
+                return Some("motion is not finite".into())
+            }
+            Some(Motion::Move { relative: m }) if m.forward.hypot(m.left) > limits::MAX_FORWARD_M => {
+                return Some(format!(
+                    "a move of {} m between two frames is beyond the {} m limit (metres, not millimetres?)",
+                    shown(m.forward.hypot(m.left)),
+                    limits::MAX_FORWARD_M
+                ))
+            }
+            Some(Motion::Move { relative: m }) if m.turn_deg.abs() > limits::MAX_TURN_DEG => {
+                return Some(format!(
+                    "a turn of {}° between two frames is more than a full turn",
+                    shown(m.turn_deg)
+                ))
+            }
             Some(Motion::Forward { forward }) if forward.abs() > limits::MAX_FORWARD_M => {
                 return Some(format!(
                     "a straight move of {} m between two frames is beyond the {} m limit (metres, not millimetres?)",
@@ -550,11 +686,11 @@ impl Dataset {
                         f.sweep
                     ))
                 }
-                Some(Motion::Forward { .. }) if f.sweep <= before => {
+                Some(Motion::Forward { .. }) | Some(Motion::Move { .. }) if f.sweep <= before => {
                     return Some(format!(
-                    "a straight move starts a new sweep after sweep {before}, but the frame says sweep {}",
-                    f.sweep
-                ))
+                        "a move starts a new sweep after sweep {before}, but the frame says sweep {}",
+                        f.sweep
+                    ))
                 }
                 _ => {}
             }
@@ -567,9 +703,10 @@ impl Dataset {
         None
     }
 
-    /// The manifest's path.
+    /// The file that describes the dataset: its `dataset.json`, or an
+    /// image folder's rig file.
     pub fn manifest_path(&self) -> PathBuf {
-        self.root.join("dataset.json")
+        self.source.clone()
     }
 
     /// Path of frame `i`'s image.
@@ -597,6 +734,10 @@ impl Dataset {
     pub fn camera(&self, kind: Option<ModelKind>) -> Result<Camera, IoError> {
         let cam = &self.manifest.camera;
         match kind.unwrap_or_else(|| cam.default_kind()) {
+            ModelKind::Paper if cam.pinhole.as_ref().is_some_and(|p| p.distortion.is_some()) => Err(IoError::invalid(
+                self.manifest_path(),
+                "the camera's lens distortion (camera.pinhole.distortion) is beyond the paper's model: use the pinhole model",
+            )),
             ModelKind::Paper => Ok(Camera::Paper(cam.ipm_model())),
             ModelKind::Pinhole => cam.pinhole_model().map(Camera::Pinhole).ok_or_else(|| {
                 IoError::invalid(

@@ -3,6 +3,9 @@
 //! - [`Dataset`]: a camera dataset in `rop-dataset/1` format (manifest,
 //!   frames, optional truth), read with every field checked.
 //! - [`Manifest`], [`CameraSpec`], [`FrameSpec`], [`Motion`]: the manifest.
+//! - [`ImageFolder`], [`Rig`]: a folder of a real camera's images with
+//!   a stamps file, a calibration (ROS `camera_info` or OpenCV YAML) and
+//!   optional odometry and truth, read as a dataset.
 //! - [`World`], [`Obstacle`]: the scene of `truth/world.json`.
 //! - [`TruthRop`]: a true radial profile of `truth/rop/`.
 //! - [`write_map_dir`], [`read_ros_map`], [`read_poses`], [`PoseRecord`]:
@@ -36,6 +39,7 @@ mod carmen;
 mod dataset;
 mod error;
 mod g2o;
+mod images;
 mod map_dir;
 mod places;
 mod relations;
@@ -45,11 +49,14 @@ pub use atomic::{atomic_write, atomic_write_with};
 pub use bag::{open_laser_log, BagOptions, LaserLog, LogInfo};
 pub use carmen::{CarmenReader, LaserScan, OdometrySource, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
 pub use dataset::{
-    limits, CameraSpec, Dataset, FrameSpec, Manifest, Motion, MountSpec, PinholeSpec, PoseSpec, TruthRop,
-    FORMAT_VERSION,
+    limits, CameraSpec, Dataset, FrameSpec, LensSpec, Manifest, Motion, MountSpec, MoveSpec, PinholeSpec,
+    PoseSpec, TruthRop, FORMAT_VERSION,
 };
 pub use error::IoError;
 pub use g2o::{parse_g2o, read_g2o, write_g2o, write_pose_graph, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
+pub use images::{
+    read_stamps, read_truth, ImageFolder, Rig, Selection, Stamped, TruthFrame, RIG_FILE, RIG_FORMAT,
+};
 pub use map_dir::{names as map_names, read_poses, read_ros_map, write_map_dir, write_tum, PoseRecord};
 pub use places::{
     decode_place_index, read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES,

@@ -33,7 +33,7 @@ pub struct Relation {
 /// The numeric rows of a whitespace-separated text file, `#` lines and
 /// blank lines skipped; every row must have at least `columns` finite
 /// numbers.
-fn rows(path: &Path, columns: usize, what: &str) -> Result<Vec<(usize, Vec<f64>)>, IoError> {
+pub(crate) fn rows(path: &Path, columns: usize, what: &str) -> Result<Vec<(usize, Vec<f64>)>, IoError> {
     let text = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
     let text = std::str::from_utf8(&text).map_err(|_| IoError::invalid(path, "not text (invalid UTF-8)"))?;
     let mut out = Vec::new();

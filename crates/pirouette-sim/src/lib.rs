@@ -100,6 +100,7 @@ pub fn render_dataset(
                 cy: camera.cy,
                 height: camera.height_m,
                 tilt_deg: camera.tilt_rad.to_degrees(),
+                distortion: pirouette_io::LensSpec::of(&camera.distortion),
             }),
             mount: Some(MountSpec {
                 forward: camera.mount_forward_m,

@@ -246,7 +246,10 @@ impl Renderer {
             for u in 0..cam.width as usize {
                 let mut acc = [0.0; 3];
                 for (du, dv) in SUB {
-                    let r = cam.ray(u as f64 + du, v as f64 + dv);
+                    // A pixel the lens has no ray for stays black.
+                    let Some(r) = cam.ray(u as f64 + du, v as f64 + dv) else {
+                        continue;
+                    };
                     let dir = [c * r[0] - s * r[1], s * r[0] + c * r[1], r[2]];
                     let col = self.shade(origin, dir);
                     for k in 0..3 {

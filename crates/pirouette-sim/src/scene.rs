@@ -88,6 +88,10 @@ pub struct CameraSetup {
     pub mount_forward_m: f64,
     /// Mount offset to the left, metres.
     pub mount_left_m: f64,
+    /// The lens distortion the images are rendered through; none when
+    /// absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lens: Option<pirouette_io::LensSpec>,
 }
 
 impl Default for CameraSetup {
@@ -102,6 +106,7 @@ impl Default for CameraSetup {
             tilt_deg: 25.0,
             mount_forward_m: 0.0,
             mount_left_m: 0.0,
+            lens: None,
         }
     }
 }
@@ -123,6 +128,12 @@ impl CameraSetup {
             tilt_rad: self.tilt_deg.to_radians(),
             mount_forward_m: self.mount_forward_m,
             mount_left_m: self.mount_left_m,
+            // A lens that does not read is refused by `Scene::validate`.
+            distortion: self
+                .lens
+                .as_ref()
+                .and_then(|l| l.distortion().ok())
+                .unwrap_or_default(),
         }
     }
 }
@@ -290,6 +301,9 @@ impl Scene {
         }
         if let Some(p) = image_size_problem(c.width, c.height) {
             return Some(format!("camera: {p}"));
+        }
+        if let Some(Err(e)) = c.lens.as_ref().map(|l| l.distortion()) {
+            return Some(format!("camera.lens: {e}"));
         }
         if c.height_m > MAX_LENGTH_M || self.max_range > MAX_RANGE_M {
             return Some(format!(

@@ -35,7 +35,8 @@
 //! use pirouette_camera::PinholeModel;
 //! use pirouette_vision::{RopExtractor, VisionConfig};
 //! let cam = PinholeModel { width: 64, height: 48, fx: 55.4, fy: 55.4, cx: 31.5, cy: 23.5,
-//!     height_m: 0.1, tilt_rad: 25f64.to_radians(), mount_forward_m: 0.0, mount_left_m: 0.0 };
+//!     height_m: 0.1, tilt_rad: 25f64.to_radians(), mount_forward_m: 0.0, mount_left_m: 0.0,
+//!     distortion: Default::default() };
 //! let extractor = RopExtractor::new(&cam, 0.9, VisionConfig::default());
 //! let floor_only = image::RgbImage::from_pixel(64, 48, image::Rgb([40, 40, 45]));
 //! let rop = extractor.rop(&floor_only)?;

@@ -18,6 +18,7 @@ fn cam() -> PinholeModel {
         tilt_rad: 25f64.to_radians(),
         mount_forward_m: 0.0,
         mount_left_m: 0.0,
+        distortion: Default::default(),
     }
 }
 
