@@ -75,6 +75,47 @@ impl PosePrior {
         }
     }
 
+    /// The pose after a general move `relative` (a turn and a shift
+    /// together, in the start's frame, as odometry gives it) from `start`,
+    /// whose heading is known to `start_sigma_theta_rad`; the move's own
+    /// turn errs by `turn_sigma_rad`. As [`PosePrior::after_forward`] along
+    /// the shift's direction, the turn's error added to the heading's.
+    pub fn after_move(
+        start: &Pose2,
+        relative: &Pose2,
+        start_sigma_theta_rad: f64,
+        turn_sigma_rad: f64,
+        noise: &MotionNoise,
+    ) -> Self {
+        let d = relative.x.hypot(relative.y);
+        // The shift's errors lie along and across its own direction; in
+        // the end pose's frame that direction is turned by the move's turn.
+        let along = (noise.distance_frac * d).hypot(noise.floor_m);
+        let across = (d * start_sigma_theta_rad)
+            .hypot(0.5 * d * noise.heading_rad)
+            .hypot(noise.floor_m);
+        let shift_dir = relative.y.atan2(relative.x) - relative.theta;
+        let (s, c) = shift_dir.sin_cos();
+        // The prior is axis-aligned in its own frame: the larger spread
+        // is taken on both axes where the shift runs at a slant (a slight
+        // overstatement, never an understatement).
+        let (sigma_forward_m, sigma_left_m) = if c.abs() > 0.999 {
+            (along, across)
+        } else if s.abs() > 0.999 {
+            (across, along)
+        } else {
+            (along.max(across), along.max(across))
+        };
+        Self {
+            mean: *start * *relative,
+            sigma_forward_m,
+            sigma_left_m,
+            sigma_theta_rad: start_sigma_theta_rad
+                .hypot(noise.heading_rad)
+                .hypot(turn_sigma_rad),
+        }
+    }
+
     /// The box [`register`] searches about the prior's mean.
     pub fn window(&self, config: &RegisterConfig) -> Window {
         let window = |sigma: f64| (config.window_sigmas * sigma).min(config.max_window_m);

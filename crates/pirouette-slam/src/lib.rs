@@ -51,10 +51,11 @@ pub enum Sensor {
 impl Sensor {
     /// Which sensor's input `path` holds, by its shape alone (the reader
     /// then checks its content): a ROS 2 bag's folder and any file but a
-    /// `dataset.json` are laser logs, any other folder a camera dataset.
+    /// JSON file are laser logs; a `dataset.json`, an image folder's rig
+    /// file (any other `.json`) and any other folder are camera input.
     pub fn of(path: &Path) -> Sensor {
         let ros2_folder = path.join("metadata.yaml").is_file();
-        let log_file = path.is_file() && path.file_name().is_some_and(|n| n != "dataset.json");
+        let log_file = path.is_file() && path.extension().is_none_or(|e| e != "json");
         if ros2_folder || log_file {
             Sensor::Laser
         } else {
@@ -77,6 +78,8 @@ mod tests {
         std::fs::write(dir.join("intel.log"), "").unwrap();
         assert_eq!(Sensor::of(&dir), Sensor::Camera);
         assert_eq!(Sensor::of(&dir.join("dataset.json")), Sensor::Camera);
+        std::fs::write(dir.join("rig.json"), "{}").unwrap();
+        assert_eq!(Sensor::of(&dir.join("rig.json")), Sensor::Camera);
         assert_eq!(Sensor::of(&dir.join("intel.log")), Sensor::Laser);
         assert_eq!(Sensor::of(&ros2), Sensor::Laser);
         assert_eq!(Sensor::of(&ros2.join("metadata.yaml")), Sensor::Laser);

@@ -3,7 +3,7 @@
 //! the forward moves between them, and the sweeps moved together, each a
 //! rigid whole, to agree with all of it.
 
-use super::build::{forward_distance, last_frame, refine_pass};
+use super::build::{last_frame, motion_prior, refine_pass};
 use super::fields::{field_in, seen_by};
 use super::placed::{far_reach_m, Placed};
 use super::{graph, revisits, MapConfig};
@@ -187,8 +187,8 @@ fn motion_edges(
             let prev = &placed[s - 1];
             let (last, fallback_var) = last_frame(&sweeps[s - 1], prev, config);
             let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
-            let distance = forward_distance(input[sweeps[s].frames[0]].commanded());
-            let prior = PosePrior::after_forward(&prev.rel(last), distance, start_sigma, &config.motion);
+            let motion = input[sweeps[s].frames[0]].commanded();
+            let prior = motion_prior(&prev.rel(last), start_sigma, motion, config);
             graph::Edge {
                 i: s - 1,
                 j: s,

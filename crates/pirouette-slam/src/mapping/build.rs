@@ -320,7 +320,46 @@ pub(super) fn forward_prior(
     // The last frame's heading: the sweep's registration, a verified
     // turn's error and a command's per fallback turn.
     let start_var = prev.covariance[(2, 2)] + config.sweep.verified_sigma_rad.powi(2) + fallback_var;
-    PosePrior::after_forward(&start, forward_distance(motion), start_var.sqrt(), &config.motion)
+    motion_prior(&start, start_var.sqrt(), motion, config)
+}
+
+/// The belief in a sweep's first frame after `motion` from `start`
+/// (whose heading is known to `start_sigma_theta_rad`): a commanded
+/// straight move, or a general move (odometry's turn and shift), whose
+/// turn errs as a commanded turn of that size; with no motion (an image
+/// stream without odometry) anything the frames' overlap allows
+/// ([`UNKNOWN_TURN_SIGMA_RAD`], [`UNKNOWN_SHIFT_SIGMA_M`]).
+pub(super) fn motion_prior(
+    start: &Pose2,
+    start_sigma_theta_rad: f64,
+    motion: Option<Motion>,
+    config: &MapConfig,
+) -> PosePrior {
+    match motion {
+        None => PosePrior {
+            mean: *start,
+            sigma_forward_m: UNKNOWN_SHIFT_SIGMA_M,
+            sigma_left_m: UNKNOWN_SHIFT_SIGMA_M,
+            sigma_theta_rad: start_sigma_theta_rad.hypot(UNKNOWN_TURN_SIGMA_RAD),
+        },
+        Some(m @ Motion::Move { .. }) => {
+            let relative = m.relative_pose();
+            let turn_sigma = config.command_sigma(relative.theta);
+            PosePrior::after_move(
+                start,
+                &relative,
+                start_sigma_theta_rad,
+                turn_sigma,
+                &config.motion,
+            )
+        }
+        _ => PosePrior::after_forward(
+            start,
+            forward_distance(motion),
+            start_sigma_theta_rad,
+            &config.motion,
+        ),
+    }
 }
 
 /// A sweep's last frame, and the variance its heading takes on from the
@@ -335,6 +374,16 @@ pub(super) fn last_frame(sweep: &DatasetSweep, placed: &Placed, config: &MapConf
         .expect("in a block");
     (last, placed.fallback_var(last_block, sweep, config))
 }
+
+/// How far a frame of unknown motion may have turned since the last, one
+/// standard deviation: frames must share a good part of a camera's view
+/// for the images to tell the turn, so within three of these (45°) of a
+/// 60° camera.
+pub const UNKNOWN_TURN_SIGMA_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
+/// How far a frame of unknown motion may have moved since the last, one
+/// standard deviation, metres (a slow robot between two frames).
+pub const UNKNOWN_SHIFT_SIGMA_M: f64 = 0.15;
 
 /// The commanded forward move before a sweep, metres (0 without one).
 pub(super) fn forward_distance(motion: Option<Motion>) -> f64 {

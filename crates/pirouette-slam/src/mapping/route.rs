@@ -62,11 +62,9 @@ pub fn dead_reckoning(motions: &[Option<Motion>]) -> Vec<Pose2> {
     let mut pose = Pose2::IDENTITY;
     motions
         .iter()
-        .map(|&motion| {
-            match motion {
-                Some(Motion::Turn { turn_deg }) => pose = pose * Pose2::new(0.0, 0.0, turn_deg.to_radians()),
-                Some(Motion::Forward { forward }) => pose = pose * Pose2::new(forward, 0.0, 0.0),
-                None => {}
+        .map(|motion| {
+            if let Some(m) = motion {
+                pose = pose * m.relative_pose();
             }
             pose
         })
