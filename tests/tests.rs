@@ -11,5 +11,6 @@ mod laser;
 mod map;
 mod places;
 mod profile;
+mod real;
 mod sweep;
 mod truth;
