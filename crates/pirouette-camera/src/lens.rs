@@ -85,6 +85,15 @@ impl Distortion {
             return Err(format!("distortion coefficient {v} is not finite"));
         }
         let key = name.trim().to_ascii_lowercase();
+        // ROS writes an empty `D` for a camera calibrated without a lens
+        // model: the ideal pinhole (a fisheye always needs its four).
+        let radtan = matches!(
+            key.as_str(),
+            "plumb_bob" | "radtan" | "radial-tangential" | "radial_tangential" | "brown" | "none" | ""
+        );
+        if d.is_empty() && radtan {
+            return Ok(Distortion::None);
+        }
         let model = match key.as_str() {
             "plumb_bob" | "radtan" | "radial-tangential" | "radial_tangential" | "brown" => {
                 // OpenCV writes 4, 5, 8, 12 or 14 coefficients; the terms
