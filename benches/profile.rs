@@ -1,7 +1,9 @@
 //! Image → ROP: one 320 × 240 frame, single thread, tables built once.
 //!
 //! Fixtures are frames of the built-in scenes rendered with a fixed seed:
-//! a dark soccer field with white walls and a light textured room.
+//! a dark soccer field with white walls and a light textured room; and,
+//! where `PIROUETTE_SHARED` is set, a real frame (TUM pioneer_360, JPEG,
+//! through its calibrated lens) read with the project's rig.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pirouette::geom::Pose2;
@@ -61,7 +63,52 @@ fn image_to_rop(c: &mut Criterion) {
             b.iter(|| ex.boundaries(black_box(img)).expect("sizes match"))
         });
     }
+    real_frame(&mut group);
     group.finish();
+}
+
+/// A real 320 × 240 frame through the project's rig of the TUM set (lens
+/// included), at the sweeps' bin width; skipped with a message where the
+/// shared data is not there.
+fn real_frame(group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>) {
+    let Some(shared) = std::env::var_os("PIROUETTE_SHARED").filter(|v| !v.is_empty()) else {
+        eprintln!("PIROUETTE_SHARED unset: the real frame (image_to_rop/real-tum) is not measured");
+        return;
+    };
+    let set = std::path::Path::new(&shared).join("real/tum-fr2-pioneer-360");
+    let rig =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/real/tum-fr2-pioneer-360/rig.json");
+    let rig: pirouette::io::Rig =
+        serde_json::from_str(&std::fs::read_to_string(&rig).expect("the project's rig")).expect("a rig");
+    let calibration = pirouette::camera::Calibration::read(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("datasets/real/tum-fr2-pioneer-360/camera_info.yaml"),
+    )
+    .expect("the project's calibration");
+    let camera = pirouette::camera::PinholeModel {
+        width: calibration.width,
+        height: calibration.height,
+        fx: calibration.fx,
+        fy: calibration.fy,
+        cx: calibration.cx,
+        cy: calibration.cy,
+        height_m: rig.height,
+        tilt_rad: rig.tilt_deg.to_radians(),
+        mount_forward_m: rig.mount.unwrap_or_default().forward,
+        mount_left_m: rig.mount.unwrap_or_default().left,
+        distortion: calibration.distortion,
+    };
+    let img = image::open(set.join("frames/00600.jpg"))
+        .expect("a shared frame")
+        .into_rgb8();
+    let config = VisionConfig {
+        bin_width_rad: pirouette::pipeline::SWEEP_BIN_DEG.to_radians(),
+        ..VisionConfig::default()
+    };
+    let ex = RopExtractor::new(&camera, rig.max_range, config);
+    group.bench_function("real-tum/0.25deg", |b| {
+        b.iter(|| ex.rop(black_box(&img)).expect("sizes match"))
+    });
 }
 
 criterion_group!(benches, image_to_rop);
