@@ -85,19 +85,8 @@ fn real_frame(group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::
             .join("datasets/real/tum-fr2-pioneer-360/camera_info.yaml"),
     )
     .expect("the project's calibration");
-    let camera = pirouette::camera::PinholeModel {
-        width: calibration.width,
-        height: calibration.height,
-        fx: calibration.fx,
-        fy: calibration.fy,
-        cx: calibration.cx,
-        cy: calibration.cy,
-        height_m: rig.height,
-        tilt_rad: rig.tilt_deg.to_radians(),
-        mount_forward_m: rig.mount.unwrap_or_default().forward,
-        mount_left_m: rig.mount.unwrap_or_default().left,
-        distortion: calibration.distortion,
-    };
+    let mount = rig.mount.unwrap_or_default();
+    let camera = calibration.pinhole(rig.height, rig.tilt_deg.to_radians(), mount.forward, mount.left);
     let img = image::open(set.join("frames/00600.jpg"))
         .expect("a shared frame")
         .into_rgb8();

@@ -1,7 +1,7 @@
 //! Real camera frames (`../shared/real/`) read through the project's rig.
 
 use crate::util::shared;
-use pirouette::io::{Dataset, Motion};
+use pirouette::io::Dataset;
 use std::path::Path;
 
 /// The project's rig of the TUM pioneer_360 frames, written beside a
@@ -38,6 +38,7 @@ fn the_tum_frames_open_as_a_dataset_with_their_lens_and_turn() {
     let dir = tempfile::tempdir().unwrap();
     let ds = Dataset::open(&tum_rig(dir.path())).unwrap();
     assert_eq!(ds.manifest.frames.len(), 245);
+    // No odometry: no motion is taken for a command.
     assert!(ds.manifest.frames.iter().all(|f| f.motion.is_none()));
     let lens = ds
         .manifest

@@ -7,6 +7,7 @@
 //! robot, which the dataset adds (height, tilt, mount).
 
 use crate::lens::Distortion;
+use crate::PinholeModel;
 use std::path::{Path, PathBuf};
 use yaml_rust2::{Yaml, YamlLoader};
 
@@ -113,6 +114,31 @@ impl Calibration {
             cy,
             distortion,
         })
+    }
+
+    /// The pinhole model of this camera standing `height_m` above the
+    /// floor, tilted `tilt_rad` down, at `mount_forward_m`, `mount_left_m`
+    /// from the robot's turning centre.
+    pub fn pinhole(
+        &self,
+        height_m: f64,
+        tilt_rad: f64,
+        mount_forward_m: f64,
+        mount_left_m: f64,
+    ) -> PinholeModel {
+        PinholeModel {
+            width: self.width,
+            height: self.height,
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.cx,
+            cy: self.cy,
+            height_m,
+            tilt_rad,
+            mount_forward_m,
+            mount_left_m,
+            distortion: self.distortion,
+        }
     }
 
     /// The calibration of the same camera at `width` × `height` (an image

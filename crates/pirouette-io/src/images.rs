@@ -13,9 +13,9 @@
 //! or unknown (`null`) without odometry. See `docs/image-folders.md`.
 
 use crate::dataset::{CameraSpec, FrameSpec, LensSpec, Manifest, MountSpec, PinholeSpec, PoseSpec};
-use crate::relations::rows;
+use crate::relations::{quaternion, rows};
 use crate::{IoError, Motion};
-use pirouette_camera::{Calibration, CalibrationError, PinholeModel};
+use pirouette_camera::{Calibration, CalibrationError};
 use pirouette_geom::Pose2;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -175,15 +175,8 @@ struct Pose3 {
 fn read_tum3(path: &Path) -> Result<Vec<Pose3>, IoError> {
     let mut out: Vec<Pose3> = Vec::new();
     for (line, v) in rows(path, 8, "TUM")? {
-        let (x, y, z, w) = (v[4], v[5], v[6], v[7]);
+        let [x, y, z, w] = quaternion(path, line, &v)?;
         let n = (x * x + y * y + z * z + w * w).sqrt();
-        if !(0.5..=2.0).contains(&n) {
-            return Err(IoError::Line {
-                path: path.to_owned(),
-                line,
-                problem: format!("the quaternion's length {n} is not 1"),
-            });
-        }
         let (x, y, z, w) = (x / n, y / n, z / n, w / n);
         let r = [
             [
@@ -417,19 +410,7 @@ impl ImageFolder {
             }
             None => chosen.extend((0..stamped.len()).step_by(rig.select.every).map(|k| (k, None))),
         }
-        let pinhole = PinholeModel {
-            width: calib.width,
-            height: calib.height,
-            fx: calib.fx,
-            fy: calib.fy,
-            cx: calib.cx,
-            cy: calib.cy,
-            height_m: rig.height,
-            tilt_rad: rig.tilt_deg.to_radians(),
-            mount_forward_m: mount.forward,
-            mount_left_m: mount.left,
-            distortion: calib.distortion,
-        };
+        let pinhole = calib.pinhole(rig.height, rig.tilt_deg.to_radians(), mount.forward, mount.left);
         // The paper's measurements of this camera (the format always
         // carries them); a camera whose centre row sees no floor has none.
         let ipm = pinhole.ipm_measurements().ok_or_else(|| {

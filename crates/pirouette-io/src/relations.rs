@@ -69,20 +69,28 @@ pub(crate) fn rows(path: &Path, columns: usize, what: &str) -> Result<Vec<(usize
     Ok(out)
 }
 
+/// The quaternion `qx qy qz qw` of a TUM row (columns 4-7) as written,
+/// and its length, refused where it is far from a rotation's (a file
+/// whose columns are in another order).
+pub(crate) fn quaternion(path: &Path, line: usize, v: &[f64]) -> Result<[f64; 4], IoError> {
+    let q = [v[4], v[5], v[6], v[7]];
+    let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    if !(0.5..=2.0).contains(&norm) {
+        return Err(IoError::Line {
+            path: path.to_owned(),
+            line,
+            problem: format!("the quaternion's length {norm} is not 1"),
+        });
+    }
+    Ok(q)
+}
+
 /// Reads a TUM trajectory: its planar poses, in file order.
 pub fn read_tum(path: &Path) -> Result<Vec<StampedPose>, IoError> {
     rows(path, 8, "TUM")?
         .into_iter()
         .map(|(line, v)| {
-            let (qx, qy, qz, qw) = (v[4], v[5], v[6], v[7]);
-            let norm = (qx * qx + qy * qy + qz * qz + qw * qw).sqrt();
-            if !(0.5..=2.0).contains(&norm) {
-                return Err(IoError::Line {
-                    path: path.to_owned(),
-                    line,
-                    problem: format!("the quaternion's length {norm} is not 1"),
-                });
-            }
+            let [qx, qy, qz, qw] = quaternion(path, line, &v)?;
             let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
             Ok(StampedPose {
                 t: v[0],
