@@ -320,3 +320,43 @@ fn map_and_eval_refuse_bad_input_with_the_file_named() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("--far-reach 0.5"), "{err}");
 }
+
+/// A dataset whose motions are general moves, as odometry gives them
+/// (here the true relative poses, the shifts 8 % long and the turns 5 %
+/// short, as a worn wheel makes them): frames that turned in place keep
+/// their sweep and have their turns verified, moves are the priors of
+/// registration, and the map is as good as from commands.
+#[test]
+fn odometry_moves_map_a_rendered_field_as_well_as_commands() {
+    let src = rendered("field-multi", 1);
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("moves");
+    let mut ds = pirouette::io::Dataset::open(&src).unwrap();
+    let truth = ds.truth_poses().unwrap();
+    let mut sweep = 0;
+    for (i, f) in ds.manifest.frames.iter_mut().enumerate().skip(1) {
+        let rel = truth[i - 1].inverse() * truth[i];
+        let odometry = pirouette::geom::Pose2::new(1.08 * rel.x, 1.08 * rel.y, 0.95 * rel.theta);
+        let m = pirouette::io::Motion::from_relative(&odometry);
+        if !m.is_in_place_turn() {
+            sweep += 1;
+        }
+        f.motion = Some(m);
+        f.sweep = sweep;
+    }
+    assert!(sweep >= 5, "{sweep} moves");
+    pirouette::io::Dataset::write_manifest(&root, &ds.manifest).unwrap();
+    for f in &ds.manifest.frames {
+        let to = root.join(&f.image);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(src.join(&f.image), to).unwrap();
+    }
+    std::fs::create_dir_all(root.join("truth")).unwrap();
+    std::fs::copy(src.join("truth/world.json"), root.join("truth/world.json")).unwrap();
+    let r = map_and_eval(&root, &dir.path().join("map"));
+    let ate = num(&r, &["trajectory", "ate_aligned_m"]);
+    let odometry = num(&r, &["commanded", "ate_aligned_m"]);
+    assert!(ate <= 0.01, "ATE {ate} m ({r})");
+    assert!(ate * 5.0 < odometry, "{ate} against the odometry's {odometry}");
+    assert!(num(&r, &["map", "f1"]) >= 0.98, "{r}");
+}

@@ -139,6 +139,11 @@ pub enum Motion {
     },
 }
 
+/// The largest shift of a general move that is still a turn in place,
+/// metres: a centimetre, what any move errs by however short
+/// (odometry's noise on a robot turning on the spot is millimetres).
+pub const IN_PLACE_SHIFT_M: f64 = 0.01;
+
 /// A relative pose as stored in a general move: metres and degrees.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MoveSpec {
@@ -158,6 +163,29 @@ impl Motion {
             Motion::Move { relative } => Pose2::from_deg(relative.forward, relative.left, relative.turn_deg),
             Motion::Turn { turn_deg } => Pose2::new(0.0, 0.0, turn_deg.to_radians()),
             Motion::Forward { forward } => Pose2::new(forward, 0.0, 0.0),
+        }
+    }
+
+    /// True for a turn in place: a commanded turn, or a general move whose
+    /// shift is within [`IN_PLACE_SHIFT_M`] (odometry of a robot turning
+    /// on the spot). Such a frame stays in its sweep, and the turn is
+    /// verified by matching profiles.
+    pub fn is_in_place_turn(&self) -> bool {
+        match *self {
+            Motion::Turn { .. } => true,
+            Motion::Forward { .. } => false,
+            Motion::Move { relative } => relative.forward.hypot(relative.left) <= IN_PLACE_SHIFT_M,
+        }
+    }
+
+    /// The turn of an in-place turn ([`Motion::is_in_place_turn`]),
+    /// radians.
+    pub fn in_place_turn_rad(&self) -> Option<f64> {
+        match *self {
+            // As commanded, not wrapped: a turn of 190° is not one of −170°.
+            Motion::Turn { turn_deg } => Some(turn_deg.to_radians()),
+            Motion::Move { relative } if self.is_in_place_turn() => Some(relative.turn_deg.to_radians()),
+            _ => None,
         }
     }
 
@@ -471,6 +499,9 @@ pub struct Dataset {
     /// Each frame's time, seconds, where the input stamps its frames (an
     /// image folder); empty otherwise.
     pub stamps: Vec<f64>,
+    /// The frames' images where a bag holds them (the manifest's image
+    /// paths are then `topic@stamp` labels); `None` for image files.
+    pub bag_frames: Option<std::sync::Arc<crate::bag::camera::BagFrames>>,
 }
 
 impl Dataset {
@@ -531,6 +562,7 @@ impl Dataset {
                 manifest: folder.manifest,
                 source: rig.clone(),
                 stamps: folder.stamps,
+                bag_frames: folder.bag_frames.map(std::sync::Arc::new),
             };
             ds.check(&rig)?;
             return Ok(ds);
@@ -577,6 +609,7 @@ impl Dataset {
             manifest,
             source,
             stamps: Vec::new(),
+            bag_frames: None,
         };
         ds.check(&path)?;
         Ok(ds)
@@ -631,11 +664,14 @@ impl Dataset {
     /// What is wrong with frame `f` (after a frame of sweep `previous`),
     /// if anything: its image, its motion, its sweep number, its truth.
     fn frame_problem(&self, f: &FrameSpec, previous: Option<u32>) -> Option<String> {
-        if !is_safe_relative(&f.image) {
-            return Some("image must be a relative path inside the dataset".into());
-        }
-        if !self.root.join(&f.image).is_file() {
-            return Some("image file does not exist".into());
+        // A bag's frames are held, their paths only labels.
+        if self.bag_frames.is_none() {
+            if !is_safe_relative(&f.image) {
+                return Some("image must be a relative path inside the dataset".into());
+            }
+            if !self.root.join(&f.image).is_file() {
+                return Some("image file does not exist".into());
+            }
         }
         match f.motion {
             Some(Motion::Turn { turn_deg: v }) | Some(Motion::Forward { forward: v })
@@ -680,13 +716,13 @@ impl Dataset {
         // a straight move starts a later one.
         if let Some(before) = previous {
             match f.motion {
-                Some(Motion::Turn { .. }) if f.sweep != before => {
+                Some(m) if m.is_in_place_turn() && f.sweep != before => {
                     return Some(format!(
                         "a turn keeps the robot in sweep {before}, but the frame says sweep {}",
                         f.sweep
                     ))
                 }
-                Some(Motion::Forward { .. }) | Some(Motion::Move { .. }) if f.sweep <= before => {
+                Some(m) if !m.is_in_place_turn() && f.sweep <= before => {
                     return Some(format!(
                         "a move starts a new sweep after sweep {before}, but the frame says sweep {}",
                         f.sweep
@@ -714,7 +750,10 @@ impl Dataset {
     /// # Panics
     /// When `i` is not a frame index.
     pub fn image_path(&self, i: usize) -> PathBuf {
-        self.root.join(&self.manifest.frames[i].image)
+        match &self.bag_frames {
+            Some(b) => PathBuf::from(format!("{}:{}", b.path.display(), self.manifest.frames[i].image)),
+            None => self.root.join(&self.manifest.frames[i].image),
+        }
     }
 
     /// Loads frame `i`'s image as 8-bit RGB (grey, alpha and 16-bit images
@@ -723,6 +762,20 @@ impl Dataset {
     /// # Panics
     /// When `i` is not a frame index.
     pub fn load_image(&self, i: usize) -> Result<image::RgbImage, IoError> {
+        if let Some(b) = &self.bag_frames {
+            let img = b.decode(i)?;
+            let (width, height) = (self.manifest.camera.width, self.manifest.camera.height);
+            if img.dimensions() != (width, height) {
+                return Err(IoError::ImageSize {
+                    path: self.image_path(i),
+                    width,
+                    height,
+                    found_width: img.width(),
+                    found_height: img.height(),
+                });
+            }
+            return Ok(img);
+        }
         load_rgb(
             &self.image_path(i),
             self.manifest.camera.width,

@@ -48,8 +48,22 @@ pub struct Rig {
     pub mount: Option<MountSpec>,
     /// The soft range limit, metres.
     pub max_range: f64,
-    /// The stamps file: `stamp path` per line (TUM's `rgb.txt`).
-    pub stamps: String,
+    /// The stamps file: `stamp path` per line (TUM's `rgb.txt`). Either
+    /// this or `bag`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stamps: Option<String>,
+    /// A ROS 1 bag, a ROS 2 bag folder or its storage file, whose
+    /// `sensor_msgs/Image` or `CompressedImage` topic gives the frames
+    /// (and `nav_msgs/Odometry`, where it has one and `odometry` is not
+    /// given, the motion). Either this or `stamps`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bag: Option<String>,
+    /// The bag's image topic, where it has several.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image_topic: Option<String>,
+    /// The bag's odometry topic, where it has several.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub odom_topic: Option<String>,
     /// The folder the stamps' image paths are relative to; the stamps
     /// file's own folder when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -270,6 +284,9 @@ pub struct ImageFolder {
     pub manifest: Manifest,
     /// The stamp of each chosen frame, seconds.
     pub stamps: Vec<f64>,
+    /// The chosen frames' images, where they come from a bag (the
+    /// manifest's image paths are then labels).
+    pub bag_frames: Option<crate::bag::camera::BagFrames>,
 }
 
 fn relative_to(base: &Path, p: &str) -> PathBuf {
@@ -279,6 +296,63 @@ fn relative_to(base: &Path, p: &str) -> PathBuf {
     } else {
         base.join(p)
     }
+}
+
+/// Where the frames come from.
+enum Source {
+    Files(FileSource),
+    Bag(crate::bag::camera::CameraBag),
+}
+
+/// A stamps file and the folder its paths are relative to.
+struct FileSource {
+    stamped: Vec<Stamped>,
+    root: PathBuf,
+}
+
+impl FileSource {
+    /// Reads the stamps file `stamps` (relative to `dir`) and checks that
+    /// every image it names is there: a stamps file that names a missing
+    /// image is broken, whichever frames are chosen.
+    fn read(dir: &Path, stamps: &str, images: Option<&str>) -> Result<Self, IoError> {
+        let stamps_path = relative_to(dir, stamps);
+        let stamped = read_stamps(&stamps_path)?;
+        let root = match images {
+            Some(p) => relative_to(dir, p),
+            None => stamps_path.parent().unwrap_or(Path::new(".")).to_owned(),
+        };
+        for (k, s) in stamped.iter().enumerate() {
+            if !root.join(&s.path).is_file() {
+                return Err(IoError::invalid(
+                    &stamps_path,
+                    format!(
+                        "stamp {} (line {} of the stamps) names {}, which does not exist",
+                        s.t,
+                        k + 1,
+                        root.join(&s.path).display()
+                    ),
+                ));
+            }
+        }
+        Ok(Self { stamped, root })
+    }
+}
+
+/// Refuses images (the first is `first`, `w` × `h`) of another size than
+/// the calibration's.
+fn check_size(calib_path: &Path, calib: &Calibration, first: &Path, w: u32, h: u32) -> Result<(), IoError> {
+    if (w, h) != (calib.width, calib.height) {
+        return Err(IoError::invalid(
+            calib_path,
+            format!(
+                "the calibration is for {}x{} images, but {} is {w}x{h} (calibrate at the images' size, or scale K with them)",
+                calib.width,
+                calib.height,
+                first.display()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The ground-truth poses of a rig, planar, with their stamps.
@@ -327,46 +401,51 @@ impl ImageFolder {
                 "select: min_turn_deg and min_move_m must be 0 or more, every at least 1",
             ));
         }
-        let stamps_path = relative_to(&dir, &rig.stamps);
-        let stamped = read_stamps(&stamps_path)?;
-        let images_root = match &rig.images {
-            Some(p) => relative_to(&dir, p),
-            None => stamps_path.parent().unwrap_or(Path::new(".")).to_owned(),
-        };
-        // Every named image must be there, not only the chosen ones: a
-        // stamps file that names a missing image is broken.
-        for (k, s) in stamped.iter().enumerate() {
-            if !images_root.join(&s.path).is_file() {
-                return Err(IoError::invalid(
-                    &stamps_path,
-                    format!(
-                        "stamp {} (line {} of the stamps) names {}, which does not exist",
-                        s.t,
-                        k + 1,
-                        images_root.join(&s.path).display()
-                    ),
-                ));
-            }
-        }
-        // The images must be of the calibration's size (read from the
-        // first image's header).
-        let first = images_root.join(&stamped[0].path);
-        let (w, h) = image::image_dimensions(&first).map_err(|e| IoError::Image {
-            path: first.clone(),
-            source: e,
-        })?;
-        if (w, h) != (calib.width, calib.height) {
-            return Err(IoError::invalid(
-                &calib_path,
-                format!(
-                    "the calibration is for {}x{} images, but {} is {w}x{h} (calibrate at the images' size, or scale K with them)",
-                    calib.width,
-                    calib.height,
-                    first.display()
-                ),
-            ));
-        }
         let mount = rig.mount.unwrap_or_default();
+        let source = match (&rig.stamps, &rig.bag) {
+            (Some(stamps), None) => Source::Files(FileSource::read(&dir, stamps, rig.images.as_deref())?),
+            (None, Some(bag)) => {
+                if rig.images.is_some() {
+                    return Err(IoError::invalid(
+                        rig_path,
+                        "`images` is for a stamps file, not a bag",
+                    ));
+                }
+                Source::Bag(crate::bag::camera::CameraBag::scan(
+                    &relative_to(&dir, bag),
+                    rig.image_topic.as_deref(),
+                    rig.odom_topic.as_deref(),
+                )?)
+            }
+            _ => {
+                return Err(IoError::invalid(
+                    rig_path,
+                    "give the frames either as `stamps` (a stamps file) or as `bag`, one of the two",
+                ))
+            }
+        };
+        if let Source::Files(f) = &source {
+            // The images must be of the calibration's size (read from the
+            // first image's header).
+            let first = f.root.join(&f.stamped[0].path);
+            let (w, h) = image::image_dimensions(&first).map_err(|e| IoError::Image {
+                path: first.clone(),
+                source: e,
+            })?;
+            check_size(&calib_path, &calib, &first, w, h)?;
+        }
+        let stamped: Vec<Stamped> = match &source {
+            Source::Files(f) => f.stamped.clone(),
+            Source::Bag(b) => (b.stamps.iter())
+                .map(|&t| Stamped {
+                    t,
+                    // A label, not a file: the topic and the stamp in
+                    // whole nanoseconds (no dot, so that no extension is
+                    // taken off it).
+                    path: format!("{}@{}", b.topic, (t * 1e9).round() as i64),
+                })
+                .collect(),
+        };
         let odometry: Option<Vec<(f64, Pose2)>> = rig
             .odometry
             .as_ref()
@@ -376,7 +455,11 @@ impl ImageFolder {
                     .map(|p| (p.t, p.planar(TruthFrame::Base, mount)))
                     .collect())
             })
-            .transpose()?;
+            .transpose()?
+            .or_else(|| match &source {
+                Source::Bag(b) if !b.odometry.is_empty() => Some(b.odometry.clone()),
+                _ => None,
+            });
         let truth = read_truth(rig_path, &rig)?;
         // The chosen frames and their motions.
         let mut chosen: Vec<(usize, Option<Motion>)> = Vec::new();
@@ -425,9 +508,17 @@ impl ImageFolder {
         let frames = chosen
             .iter()
             .enumerate()
-            .map(|(n, &(k, motion))| FrameSpec {
+            .scan(0u32, |sweep, (n, &(k, motion))| {
+                // A turn in place keeps the sweep; any other move (or an
+                // unknown one) starts the next.
+                if n > 0 && !motion.is_some_and(|m| m.is_in_place_turn()) {
+                    *sweep += 1;
+                }
+                Some((*sweep, k, motion))
+            })
+            .map(|(sweep, k, motion)| FrameSpec {
                 image: stamped[k].path.clone(),
-                sweep: n as u32,
+                sweep,
                 motion,
                 truth: truth
                     .as_ref()
@@ -463,12 +554,24 @@ impl ImageFolder {
             frames,
         };
         let stamps = chosen.iter().map(|&(k, _)| stamped[k].t).collect();
+        let (root, bag_frames) = match source {
+            Source::Files(f) => (f.root, None),
+            Source::Bag(b) => {
+                let positions: Vec<usize> = chosen.iter().map(|&(k, _)| k).collect();
+                let frames = b.frames(&positions)?;
+                let first = frames.decode(0)?;
+                let label = PathBuf::from(format!("{} (topic {})", b.path.display(), b.topic));
+                check_size(&calib_path, &calib, &label, first.width(), first.height())?;
+                (b.path.parent().unwrap_or(Path::new(".")).to_owned(), Some(frames))
+            }
+        };
         Ok(Self {
             rig_path: rig_path.to_owned(),
             rig,
-            root: images_root,
+            root,
             manifest,
             stamps,
+            bag_frames,
         })
     }
 }

@@ -50,7 +50,7 @@ pub use bag::{open_laser_log, BagOptions, LaserLog, LogInfo};
 pub use carmen::{CarmenReader, LaserScan, OdometrySource, FLASER_NO_RETURN_M, MAX_BEAMS, MAX_LINE_BYTES};
 pub use dataset::{
     limits, CameraSpec, Dataset, FrameSpec, LensSpec, Manifest, Motion, MountSpec, MoveSpec, PinholeSpec,
-    PoseSpec, TruthRop, FORMAT_VERSION,
+    PoseSpec, TruthRop, FORMAT_VERSION, IN_PLACE_SHIFT_M,
 };
 pub use error::IoError;
 pub use g2o::{parse_g2o, read_g2o, write_g2o, write_pose_graph, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};

@@ -318,8 +318,9 @@ pub fn sweep_profiles(
     })
 }
 
-/// Groups frames into sweeps (a new sweep starts at a frame without a
-/// commanded turn: the first frame or a forward move) and assembles each
+/// Groups frames into sweeps (a new sweep starts at a frame that did not
+/// turn in place: the first frame, a forward move, a general move that
+/// shifts, an unknown motion) and assembles each
 /// from its profiles, about the point the robot turns about as its own
 /// turns measure it ([`pivot_from_turns`]): assembled about `config`'s
 /// pivot, then again about the one their verified turns' shifts give,
@@ -345,7 +346,7 @@ pub fn sweeps(
     // round.
     let mut groups: Vec<(u32, Vec<usize>)> = Vec::new();
     for (i, f) in frames.iter().enumerate() {
-        let turn = matches!(f.commanded(), Some(Motion::Turn { .. }));
+        let turn = f.commanded().is_some_and(|m| m.is_in_place_turn());
         match groups.last_mut() {
             Some((_, members)) if turn => members.push(i),
             _ => groups.push((f.sweep, vec![i])),
@@ -414,7 +415,7 @@ pub fn commanded_turns(motion: impl Fn(usize) -> Option<Motion>, members: &[usiz
         .iter()
         .enumerate()
         .map(|(k, &i)| match (k, motion(i)) {
-            (1.., Some(Motion::Turn { turn_deg })) => Some(turn_deg.to_radians()),
+            (1.., Some(m)) => m.in_place_turn_rad(),
             _ => None,
         })
         .collect()

@@ -21,6 +21,7 @@
 //! Everything else that is wrong is an error naming the file, and the
 //! topic or byte offset.
 
+pub mod camera;
 pub mod mcap;
 pub mod ros1;
 pub mod sqlite;
@@ -228,10 +229,16 @@ impl BagScans {
             let all: Vec<String> = (s.connections().iter())
                 .map(|c| format!("{} ({})", c.topic, c.msg_type))
                 .collect();
+            let camera = !topics_of(s, &["sensor_msgs/Image", "sensor_msgs/CompressedImage"]).is_empty();
+            let hint = if camera {
+                ": a camera bag is read through a rig file that names it (docs/image-folders.md)"
+            } else {
+                ""
+            };
             return Err(IoError::invalid(
                 path,
                 format!(
-                    "no sensor_msgs/LaserScan topic in the bag (it has {})",
+                    "no sensor_msgs/LaserScan topic in the bag (it has {}){hint}",
                     all.join(", ")
                 ),
             ));
@@ -684,16 +691,28 @@ pub fn open_laser_log(path: &Path, options: &BagOptions) -> Result<LaserLog, IoE
         ));
     }
     let (kind, file) = log_kind(path)?;
-    let source: Box<dyn MessageSource> = match kind {
-        LogKind::Carmen => {
-            if *options != BagOptions::default() {
-                return Err(IoError::invalid(path, "a CARMEN log has no topics to choose"));
-            }
-            return CarmenReader::open(path).map(|r| LaserLog::Carmen(Box::new(r)));
+    if kind == LogKind::Carmen {
+        if *options != BagOptions::default() {
+            return Err(IoError::invalid(path, "a CARMEN log has no topics to choose"));
         }
-        LogKind::Ros1 => Box::new(ros1::Ros1Bag::open(&file)?),
-        LogKind::Mcap => Box::new(mcap::McapBag::open(&file)?),
-        LogKind::Sqlite => Box::new(sqlite::SqliteBag::open(&file)?),
-    };
+        return CarmenReader::open(path).map(|r| LaserLog::Carmen(Box::new(r)));
+    }
+    let source = open_bag(kind, &file)?;
     Ok(LaserLog::Bag(Box::new(BagScans::new(&file, source, options)?)))
+}
+
+/// The messages of a bag of `kind` stored in `file`; `None` for a CARMEN
+/// log, which is no bag.
+fn open_bag(kind: LogKind, file: &Path) -> Result<Box<dyn MessageSource>, IoError> {
+    Ok(match kind {
+        LogKind::Carmen => {
+            return Err(IoError::invalid(
+                file,
+                "not a ROS bag (no #ROSBAG, MCAP or SQLite header)",
+            ))
+        }
+        LogKind::Ros1 => Box::new(ros1::Ros1Bag::open(file)?),
+        LogKind::Mcap => Box::new(mcap::McapBag::open(file)?),
+        LogKind::Sqlite => Box::new(sqlite::SqliteBag::open(file)?),
+    })
 }

@@ -141,6 +141,22 @@ impl<'a> Cursor<'a> {
         Ok((sec * 1_000_000_000 + i64::from(nsec), frame))
     }
 
+    fn u8(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
+
+    /// A `uint8[]`: its length, then the bytes as they are.
+    fn byte_array(&mut self) -> Result<&'a [u8], String> {
+        let n = self.count()?;
+        let at = self.at;
+        let raw = self
+            .bytes
+            .get(at..at + n)
+            .ok_or("a byte array runs past the message")?;
+        self.at += n;
+        Ok(raw)
+    }
+
     fn f32s(&mut self) -> Result<Vec<f32>, String> {
         let n = self.count()?;
         (0..n).map(|_| self.f32()).collect()
@@ -260,9 +276,108 @@ pub fn transforms(bytes: &[u8], wire: Wire) -> Result<Vec<FramePose>, String> {
     Ok(out)
 }
 
+/// The header of a `sensor_msgs/Image` or `sensor_msgs/CompressedImage`:
+/// its stamp (nanoseconds) and frame, without reading the pixels.
+pub fn image_header(bytes: &[u8], wire: Wire) -> Result<(i64, String), String> {
+    Cursor::new(bytes, wire)?.header()
+}
+
+/// The largest image side a camera message may have, pixels.
+const MAX_IMAGE_SIDE: u32 = 8192;
+
+/// Decodes a `sensor_msgs/Image` (encodings `rgb8`, `bgr8`, `rgba8`,
+/// `bgra8`, `mono8`) into 8-bit RGB.
+pub fn image(bytes: &[u8], wire: Wire) -> Result<image::RgbImage, String> {
+    let mut c = Cursor::new(bytes, wire)?;
+    c.header()?;
+    let height = c.u32()?;
+    let width = c.u32()?;
+    let encoding = c.string()?;
+    let _big_endian = c.u8()?;
+    let step = c.u32()? as usize;
+    let data = c.byte_array()?;
+    if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+        return Err(format!("an image of {width}x{height} pixels"));
+    }
+    let channels = match encoding.as_str() {
+        "rgb8" | "bgr8" => 3,
+        "rgba8" | "bgra8" => 4,
+        "mono8" | "8UC1" => 1,
+        other => {
+            return Err(format!(
+                "image encoding `{other}` (read: rgb8, bgr8, rgba8, bgra8, mono8)"
+            ))
+        }
+    };
+    let (w, h) = (width as usize, height as usize);
+    if step < w * channels || data.len() < step * (h - 1) + w * channels {
+        return Err(format!(
+            "{} bytes of data for a {width}x{height} {encoding} image with rows of {step} bytes",
+            data.len()
+        ));
+    }
+    let swap = encoding.starts_with("bgr");
+    Ok(image::RgbImage::from_fn(width, height, |u, v| {
+        let at = v as usize * step + u as usize * channels;
+        let px = &data[at..at + channels];
+        image::Rgb(match (channels, swap) {
+            (1, _) => [px[0]; 3],
+            (_, true) => [px[2], px[1], px[0]],
+            _ => [px[0], px[1], px[2]],
+        })
+    }))
+}
+
+/// Decodes a `sensor_msgs/CompressedImage` (JPEG or PNG) into 8-bit RGB.
+pub fn compressed_image(bytes: &[u8], wire: Wire) -> Result<image::RgbImage, String> {
+    let mut c = Cursor::new(bytes, wire)?;
+    c.header()?;
+    let format = c.string()?;
+    let data = c.byte_array()?;
+    let kind = image::guess_format(data).map_err(|e| format!("compressed image ({format}): {e}"))?;
+    if !matches!(kind, image::ImageFormat::Jpeg | image::ImageFormat::Png) {
+        return Err(format!("compressed image of {kind:?} (read: JPEG, PNG)"));
+    }
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(data), kind);
+    reader.limits({
+        let mut l = image::Limits::default();
+        l.max_image_width = Some(MAX_IMAGE_SIDE);
+        l.max_image_height = Some(MAX_IMAGE_SIDE);
+        l
+    });
+    Ok(reader
+        .decode()
+        .map_err(|e| format!("compressed image ({format}): {e}"))?
+        .into_rgb8())
+}
+
 /// Encoders of the same messages, for tests and for writing bags.
 pub mod encode {
     use super::{FramePose, ScanMsg, Wire};
+
+    /// A `sensor_msgs/Image` of `rgb8` pixels.
+    pub fn image(stamp_ns: i64, frame: &str, img: &image::RgbImage, wire: Wire) -> Vec<u8> {
+        let mut w = Writer::new(wire);
+        w.header(stamp_ns, frame);
+        w.u32(img.height());
+        w.u32(img.width());
+        w.string("rgb8");
+        w.buf.push(0);
+        w.u32(img.width() * 3);
+        w.u32(img.as_raw().len() as u32);
+        w.buf.extend_from_slice(img.as_raw());
+        w.finish()
+    }
+
+    /// A `sensor_msgs/CompressedImage` of `png` bytes.
+    pub fn compressed_image(stamp_ns: i64, frame: &str, png: &[u8], wire: Wire) -> Vec<u8> {
+        let mut w = Writer::new(wire);
+        w.header(stamp_ns, frame);
+        w.string("png");
+        w.u32(png.len() as u32);
+        w.buf.extend_from_slice(png);
+        w.finish()
+    }
 
     /// A message being written.
     pub struct Writer {
