@@ -1,6 +1,8 @@
 //! ROS bags as camera input: `sensor_msgs/Image` or
 //! `sensor_msgs/CompressedImage` (JPEG, PNG) frames, with the robot's
-//! `nav_msgs/Odometry` where the bag has it.
+//! `nav_msgs/Odometry` where the bag has it, or else the `/tf` transform
+//! that places the robot's base (`base_link` or `base_footprint`) in the
+//! odometry frame.
 //!
 //! Read in two passes, so that only the chosen frames are held: the first
 //! pass takes every image's stamp and the odometry
@@ -9,7 +11,7 @@
 //! are decoded one at a time when a frame is loaded ([`BagFrames::decode`]).
 
 use super::wire::{self, Wire};
-use super::{choose, log_kind, open_bag};
+use super::{choose, log_kind, open_bag, TF_TYPES};
 use crate::IoError;
 use pirouette_geom::Pose2;
 use std::path::{Path, PathBuf};
@@ -30,7 +32,7 @@ pub struct CameraBag {
     pub topic: String,
     /// Whether it carries `sensor_msgs/CompressedImage`.
     pub compressed: bool,
-    /// The odometry's topic, where the bag has one.
+    /// Where the odometry comes from: its topic, or `/tf (parent → base)`.
     pub odom_topic: Option<String>,
     /// Each image's header stamp, seconds, in bag order (increasing).
     pub stamps: Vec<f64>,
@@ -122,6 +124,11 @@ impl CameraBag {
             .iter()
             .map(|c| Some(&c.topic) == odom.as_ref())
             .collect();
+        // Without an odometry topic, `/tf`'s transforms of the base.
+        let tf_on: Vec<bool> = (s.connections().iter())
+            .map(|c| odom.is_none() && c.topic == "/tf" && TF_TYPES.contains(&c.msg_type.as_str()))
+            .collect();
+        let mut tf_frames: Option<(String, String)> = None;
         let wire = s.wire();
         let mut out = CameraBag {
             path: file.clone(),
@@ -151,13 +158,30 @@ impl CameraBag {
                     }
                 }
                 out.stamps.push(t);
-            } else if odom_on[m.connection] {
-                let p = wire::odometry(&m.data, wire).map_err(bad)?;
-                let t = seconds(p.stamp_ns);
-                if out.odometry.last().is_some_and(|&(last, _)| t <= last) {
-                    out.skipped_odometry += 1;
+            } else if odom_on[m.connection] || tf_on[m.connection] {
+                let poses = if odom_on[m.connection] {
+                    vec![wire::odometry(&m.data, wire).map_err(bad)?]
                 } else {
-                    out.odometry.push((t, p.pose));
+                    wire::transforms(&m.data, wire).map_err(bad)?
+                };
+                for p in poses {
+                    if tf_on[m.connection] {
+                        // The first transform of a base fixes the pair.
+                        match &tf_frames {
+                            Some((parent, child)) if *parent != p.parent || *child != p.child => continue,
+                            Some(_) => {}
+                            None if matches!(p.child.as_str(), "base_link" | "base_footprint") => {
+                                tf_frames = Some((p.parent.clone(), p.child.clone()));
+                            }
+                            None => continue,
+                        }
+                    }
+                    let t = seconds(p.stamp_ns);
+                    if out.odometry.last().is_some_and(|&(last, _)| t <= last) {
+                        out.skipped_odometry += 1;
+                    } else {
+                        out.odometry.push((t, p.pose));
+                    }
                 }
             }
         }
@@ -237,13 +261,23 @@ mod tests {
     /// raw images on one topic and PNG on another, with odometry every
     /// 0.01 s; in `wire`'s serialisation.
     fn recording(wire: Wire) -> (Vec<Connection>, Vec<OutMessage>) {
+        recording_with(wire, false)
+    }
+
+    /// As [`recording`], the odometry as `/tf` transforms (with another
+    /// frame's transform beside each) where `tf` is set.
+    fn recording_with(wire: Wire, tf: bool) -> (Vec<Connection>, Vec<OutMessage>) {
         let connections = vec![
             Connection::new("/camera/image_raw".into(), "sensor_msgs/Image"),
             Connection::new(
                 "/camera/image_raw/compressed".into(),
                 "sensor_msgs/msg/CompressedImage",
             ),
-            Connection::new("/odom".into(), "nav_msgs/Odometry"),
+            if tf {
+                Connection::new("/tf".into(), "tf2_msgs/msg/TFMessage")
+            } else {
+                Connection::new("/odom".into(), "nav_msgs/Odometry")
+            },
         ];
         let mut messages = Vec::new();
         let t0 = 1_000_000_000_000i64;
@@ -271,10 +305,20 @@ mod tests {
                 child: "base_link".into(),
                 pose: Pose2::new(0.0, 0.0, (0.4 * k as f64).to_radians()),
             };
+            let arm = FramePose {
+                parent: "base_link".into(),
+                child: "arm".into(),
+                pose: Pose2::new(1.0, 2.0, 3.0),
+                ..odom.clone()
+            };
             messages.push(OutMessage {
                 connection: 2,
                 time_ns: t as u64,
-                data: encode::odometry(&odom, wire),
+                data: if tf {
+                    encode::transforms(&[arm, odom], wire)
+                } else {
+                    encode::odometry(&odom, wire)
+                },
             });
         }
         (connections, messages)
@@ -301,11 +345,14 @@ mod tests {
         write_ros1(&p.join("run.bag"), &c1, m1, Ros1Compression::Lz4, 1 << 12).unwrap();
         let (c2, m2) = recording(Wire::Cdr);
         write_mcap(&p.join("run2"), &c2, m2).unwrap();
+        let (c3, m3) = recording_with(Wire::Cdr, true);
+        write_mcap(&p.join("run-tf"), &c3, m3).unwrap();
         for (bag, topic) in [
             ("run.bag", "/camera/image_raw"),
             ("run.bag", "/camera/image_raw/compressed"),
             ("run2", "/camera/image_raw/compressed"),
             ("run2", "/camera/image_raw"),
+            ("run-tf", "/camera/image_raw"),
         ] {
             rig(p, bag, Some(topic));
             let ds = Dataset::open(p).unwrap();

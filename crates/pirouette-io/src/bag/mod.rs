@@ -169,7 +169,7 @@ fn topics_of(source: &dyn MessageSource, types: &[&str]) -> Vec<String> {
 
 const SCAN_TYPES: [&str; 1] = ["sensor_msgs/LaserScan"];
 const ODOM_TYPES: [&str; 1] = ["nav_msgs/Odometry"];
-const TF_TYPES: [&str; 2] = ["tf2_msgs/TFMessage", "tf/tfMessage"];
+pub(crate) const TF_TYPES: [&str; 2] = ["tf2_msgs/TFMessage", "tf/tfMessage"];
 
 /// The one topic of a kind, or the one asked for (checked).
 fn choose(
