@@ -360,3 +360,31 @@ fn odometry_moves_map_a_rendered_field_as_well_as_commands() {
     assert!(ate * 5.0 < odometry, "{ate} against the odometry's {odometry}");
     assert!(num(&r, &["map", "f1"]) >= 0.98, "{r}");
 }
+
+/// A dataset with true poses but no scene (a real camera's recording with
+/// motion capture) is scored on its trajectory alone; with the scene, the
+/// map's figures stand beside the same trajectory figures.
+#[test]
+fn a_dataset_without_a_scene_is_scored_on_its_trajectory() {
+    let src = rendered("field-pirouette", 1);
+    let dir = tempfile::tempdir().unwrap();
+    let with_scene = map_and_eval(&src, &dir.path().join("a"));
+    let root = dir.path().join("no-scene");
+    let ds = pirouette::io::Dataset::open(&src).unwrap();
+    pirouette::io::Dataset::write_manifest(&root, &ds.manifest).unwrap();
+    for f in &ds.manifest.frames {
+        let to = root.join(&f.image);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(src.join(&f.image), to).unwrap();
+    }
+    let without = map_and_eval(&root, &dir.path().join("b"));
+    assert!(
+        with_scene.get("map").is_some() && without.get("map").is_none(),
+        "{without}"
+    );
+    assert_eq!(with_scene["trajectory"], without["trajectory"]);
+    assert!(
+        num(&without, &["trajectory", "ate_aligned_m"]) <= 0.02,
+        "{without}"
+    );
+}

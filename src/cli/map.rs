@@ -396,22 +396,33 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
             q.f1
         )
     };
-    show("map", &r.map)?;
-    show("map aligned", &r.map_aligned)?;
-    outln!(
-        "{:<12} turns the map by {:+.2}° and moves its origin {:.2} cm; the trajectory's best-fit scale is {:.4}",
-        "",
-        r.alignment.heading_deg,
-        r.alignment.shift_m * 100.0,
-        r.alignment.scale
-    )?;
-    show("true poses", &r.true_pose_map)?;
-    outln!(
-        "F1 is {:.1} % of the true-pose map's ({:.1} % aligned; tolerance {:.1} cm)",
-        100.0 * r.f1_ratio,
-        100.0 * r.f1_ratio_aligned,
-        r.tolerance_m * 100.0
-    )?;
+    let turned = |_| {
+        outln!(
+            "{:<12} turns the map by {:+.2}° and moves its origin {:.2} cm; the trajectory's best-fit scale is {:.4}",
+            "alignment",
+            r.alignment.heading_deg,
+            r.alignment.shift_m * 100.0,
+            r.alignment.scale
+        )
+    };
+    match &r.scene {
+        Some(scene) => {
+            show("map", &scene.map)?;
+            show("map aligned", &scene.map_aligned)?;
+            turned(())?;
+            show("true poses", &scene.true_pose_map)?;
+            outln!(
+                "F1 is {:.1} % of the true-pose map's ({:.1} % aligned; tolerance {:.1} cm)",
+                100.0 * scene.f1_ratio,
+                100.0 * scene.f1_ratio_aligned,
+                scene.tolerance_m * 100.0
+            )?;
+        }
+        None => {
+            turned(())?;
+            outln!("map          no scene (truth/world.json) to score it against: the trajectory alone")?;
+        }
+    }
     let [x, y] = r.pivot.estimated_mm;
     match r.pivot.true_mm {
         Some([tx, ty]) => {

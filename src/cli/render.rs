@@ -180,8 +180,8 @@ pub fn example(a: ExampleArgs) -> Result<()> {
         "map       trajectory error {:.2} cm (ATE, aligned; commanded motion {:.2} cm); occupied-cell F1 {:.3} (true poses {:.3})",
         report.trajectory.ate_aligned_m * 100.0,
         report.commanded.ate_aligned_m * 100.0,
-        report.map.f1,
-        report.true_pose_map.f1
+        report.scene.as_ref().map_or(f64::NAN, |s| s.map.f1),
+        report.scene.as_ref().map_or(f64::NAN, |s| s.true_pose_map.f1)
     )?;
     let sweeps = &mapped.swept.sweeps;
     let sweep_dir = a.out.join("sweeps");

@@ -30,14 +30,27 @@ pub struct MapReport {
     pub commanded: TrajectoryScores,
     /// Per sweep, its first frame's error.
     pub sweeps: Vec<SweepError>,
+    /// The trajectory's best-fit rigid alignment onto the true one.
+    pub alignment: Alignment,
+    /// The point the robot turns about, as mapping took it from the turns
+    /// and as the true poses fit it.
+    pub pivot: PivotScores,
+    /// The map against the scene, where the dataset has one
+    /// (`truth/world.json`; a real camera's recording has only its
+    /// trajectory's truth). Its fields stand beside the others in JSON.
+    #[serde(flatten)]
+    pub scene: Option<SceneScores>,
+}
+
+/// A map against its scene ([`MapReport::scene`]).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct SceneScores {
     /// The map's occupied cells against the scene, in the map frame (the
     /// true first frame).
     pub map: MapQuality,
-    /// The same after the trajectory's best-fit rigid alignment.
+    /// The same after the trajectory's best-fit rigid alignment
+    /// ([`MapReport::alignment`]).
     pub map_aligned: MapQuality,
-    /// That alignment: how far the map as a whole is turned and moved from
-    /// where its first frame puts it.
-    pub alignment: Alignment,
     /// The same for a map of the same profiles from the true poses.
     pub true_pose_map: MapQuality,
     /// `map.f1 / true_pose_map.f1`.
@@ -46,9 +59,6 @@ pub struct MapReport {
     pub f1_ratio_aligned: f64,
     /// Distance within which an occupied cell matches an outline, metres.
     pub tolerance_m: f64,
-    /// The point the robot turns about, as mapping took it from the turns
-    /// and as the true poses fit it.
-    pub pivot: PivotScores,
 }
 
 /// The best-fit rigid alignment of an estimated trajectory onto the true
@@ -149,25 +159,70 @@ pub fn evaluate_map_dir(
 ) -> Result<MapReport> {
     let truth = truth_in_map_frame(ds)?;
     let world_truth = ds.truth_poses().expect("checked by truth_in_map_frame");
-    let world = ds.world()?.with_context(|| {
-        format!(
-            "{}: no scene to evaluate the map against",
-            ds.world_path().display()
-        )
-    })?;
     let estimated = estimated_poses(ds, dir)?;
-    let ros = read_ros_map(&dir.join(map_names::YAML))?;
     let trajectory = trajectory_scores(&estimated, &truth);
     let commanded = trajectory_scores(
         &crate::mapping::dead_reckoning(&crate::frame::camera_motions(ds)),
         &truth,
     );
     let sweeps = sweep_errors(ds, &estimated, &truth);
+    let est: Vec<Point2> = estimated.iter().map(Pose2::translation).collect();
+    let tru: Vec<Point2> = truth.iter().map(Pose2::translation).collect();
+    let align = align_rigid(&est, &tru);
+    let scene = match ds.world()? {
+        Some(world) => Some(scene_scores(
+            ds,
+            dir,
+            &inputs,
+            &world,
+            &world_truth,
+            &truth,
+            &align,
+            tolerance_cells,
+        )?),
+        None => None,
+    };
+    Ok(MapReport {
+        dataset: ds.label(),
+        trajectory,
+        commanded,
+        sweeps,
+        alignment: Alignment {
+            heading_deg: align.theta.to_degrees(),
+            shift_m: align.translation().norm(),
+            scale: similarity_scale(&est, &tru),
+        },
+        pivot: PivotScores {
+            estimated_mm: inputs.pivot_m.map(|v| v * 1000.0),
+            true_mm: true_pivot(
+                &ds.manifest.frames.iter().map(|f| f.sweep).collect::<Vec<_>>(),
+                &world_truth,
+            ),
+        },
+        scene,
+    })
+}
+
+/// The map folder `dir`'s grid against the scene `world`: in the map
+/// frame, after the trajectory's alignment `align`, and a map of the
+/// same profiles from the true poses beside.
+#[allow(clippy::too_many_arguments)]
+fn scene_scores(
+    ds: &Dataset,
+    dir: &Path,
+    inputs: &MapInputs,
+    world: &World,
+    world_truth: &[Pose2],
+    truth: &[Pose2],
+    align: &Pose2,
+    tolerance_cells: f64,
+) -> Result<SceneScores> {
+    let ros = read_ros_map(&dir.join(map_names::YAML))?;
     // Occupied cells into the world through the true first pose.
     let tolerance_m = tolerance_cells * ros.resolution_m;
     let visible = visible_outline(
-        &world,
-        &world_truth,
+        world,
+        world_truth,
         inputs.span_rad,
         inputs.blind_m,
         ds.manifest.max_range,
@@ -179,52 +234,33 @@ pub fn evaluate_map_dir(
             .map(|p| world_truth[0].transform_point(p))
             .collect()
     };
-    let map = map_quality(&to_world(&ros), &world, &visible, tolerance_m);
+    let map = map_quality(&to_world(&ros), world, &visible, tolerance_m);
     // The same map moved by the trajectory's best-fit alignment: its shape,
     // whatever the first frame's own error.
-    let est: Vec<Point2> = estimated.iter().map(Pose2::translation).collect();
-    let tru: Vec<Point2> = truth.iter().map(Pose2::translation).collect();
-    let align = align_rigid(&est, &tru);
     let aligned: Vec<Point2> = occupied_centres(&ros)
         .into_iter()
         .map(|p| world_truth[0].transform_point(align.transform_point(p)))
         .collect();
-    let map_aligned = map_quality(&aligned, &world, &visible, tolerance_m);
+    let map_aligned = map_quality(&aligned, world, &visible, tolerance_m);
     let true_grid = crate::mapping::map_with_poses(
         inputs.frames.iter().map(|f| &f.rop),
-        &truth,
+        truth,
         inputs.blind_m,
         inputs.grid,
     )?;
     let true_pose_map = map_quality(
         &to_world(&RosMap::from_grid(&true_grid)),
-        &world,
+        world,
         &visible,
         tolerance_m,
     );
-    Ok(MapReport {
-        dataset: ds.label(),
-        trajectory,
-        commanded,
-        sweeps,
+    Ok(SceneScores {
         f1_ratio: map.f1 / true_pose_map.f1,
         f1_ratio_aligned: map_aligned.f1 / true_pose_map.f1,
         map,
         map_aligned,
-        alignment: Alignment {
-            heading_deg: align.theta.to_degrees(),
-            shift_m: align.translation().norm(),
-            scale: similarity_scale(&est, &tru),
-        },
         true_pose_map,
         tolerance_m,
-        pivot: PivotScores {
-            estimated_mm: inputs.pivot_m.map(|v| v * 1000.0),
-            true_mm: true_pivot(
-                &ds.manifest.frames.iter().map(|f| f.sweep).collect::<Vec<_>>(),
-                &world_truth,
-            ),
-        },
     })
 }
 
