@@ -181,7 +181,6 @@ fn bad_bags_name_the_file_and_what_is_wrong() {
         50_000,
     )
     .expect("a bag");
-    let bytes = std::fs::read(&good).expect("the bag");
     let err = |path: &Path, options: &BagOptions| -> String {
         let run = || -> Result<usize, pirouette::io::IoError> {
             let mut n = 0;
@@ -193,21 +192,27 @@ fn bad_bags_name_the_file_and_what_is_wrong() {
         };
         run().expect_err("refused").to_string()
     };
-    // Cut short in the middle of a chunk.
-    let cut = dir.path().join("cut.bag");
-    std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
-    let e = err(&cut, &BagOptions::default());
-    assert!(e.contains("cut.bag") && e.contains("cut short"), "{e}");
-    // A chunk whose bz2 stream is damaged.
-    let mut damaged = bytes.clone();
+    // A bag of one chunk, its bz2 stream damaged: nothing can be read.
+    let one = dir.path().join("one.bag");
+    write_ros1(
+        &one,
+        &connections,
+        messages.clone(),
+        Ros1Compression::Bz2,
+        1 << 30,
+    )
+    .expect("a bag");
+    let mut damaged = std::fs::read(&one).expect("the bag");
     let at = 4096 + 13 + 200;
     for b in &mut damaged[at..at + 64] {
         *b ^= 0x5a;
     }
-    let bad = dir.path().join("damaged.bag");
-    std::fs::write(&bad, &damaged).expect("write");
-    let e = err(&bad, &BagOptions::default());
-    assert!(e.contains("damaged.bag") && e.contains("at byte"), "{e}");
+    std::fs::write(&one, &damaged).expect("write");
+    let e = err(&one, &BagOptions::default());
+    assert!(
+        e.contains("one.bag") && e.contains("no chunk of the bag can be read"),
+        "{e}"
+    );
     // The wrong type on the chosen topic, and a topic not there.
     let scan_on = |t: &str| BagOptions {
         scan_topic: Some(t.into()),
@@ -258,6 +263,73 @@ fn bad_bags_name_the_file_and_what_is_wrong() {
     ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("notes.bag"));
+}
+
+/// A ROS 1 bag cut short, or with a damaged chunk, gives the scans it
+/// holds; a warning names the byte, and `map` maps them.
+#[test]
+fn damaged_ros1_bags_give_what_they_hold_with_a_warning() {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let (connections, messages) = recording(Wire::Ros1);
+    let good = dir.path().join("good.bag");
+    write_ros1(&good, &connections, messages, Ros1Compression::Bz2, 50_000).expect("a bag");
+    let bytes = std::fs::read(&good).expect("the bag");
+    let read = |path: &Path| {
+        let mut log = open_laser_log(path, &BagOptions::default()).expect("the bag opens");
+        let mut scans = 0;
+        for s in &mut log {
+            s.expect("a scan");
+            scans += 1;
+        }
+        let pirouette::io::LaserLog::Bag(b) = log else {
+            panic!("a bag")
+        };
+        (scans, b.info().warnings)
+    };
+    let (all, warnings) = read(&good);
+    assert!(all > 100 && warnings.is_empty(), "{all} {warnings:?}");
+    // Cut short in the middle of a chunk: the chunks before the cut.
+    let cut = dir.path().join("cut.bag");
+    let half = bytes.len() / 2;
+    std::fs::write(&cut, &bytes[..half]).expect("write");
+    let (n, warnings) = read(&cut);
+    assert!(n > all / 4 && n < all, "{n} of {all} scans");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let w = &warnings[0];
+    assert!(w.contains("cut.bag") && w.contains("cut short"), "{w}");
+    let byte: usize = (w.split("at byte ").nth(1))
+        .and_then(|r| r.split(':').next())
+        .and_then(|b| b.parse().ok())
+        .expect("the byte named");
+    assert!(byte > 4096 && byte < half, "{w}");
+    // A chunk whose bz2 stream is damaged: the others.
+    let mut damaged = bytes.clone();
+    let at = 4096 + 13 + 200;
+    for b in &mut damaged[at..at + 64] {
+        *b ^= 0x5a;
+    }
+    let bad = dir.path().join("damaged.bag");
+    std::fs::write(&bad, &damaged).expect("write");
+    let (n, warnings) = read(&bad);
+    assert!(n > all / 2 && n < all, "{n} of {all} scans");
+    assert!(
+        warnings.len() == 1
+            && warnings[0].contains("1 chunk(s) skipped")
+            && warnings[0].contains("damaged.bag"),
+        "{warnings:?}"
+    );
+    // `map` writes the poses of what was read, and says what it lost.
+    let out = dir.path().join("map");
+    let o = pirouette(&[
+        "map",
+        cut.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("warning:") && err.contains("cut short"), "{err}");
+    assert!(out.join("poses.json").is_file());
 }
 
 #[test]

@@ -70,6 +70,9 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
     for (why, n) in &info.skipped {
         outln!("{n} skipped: {why}")?;
     }
+    for w in &info.warnings {
+        eprintln!("warning: {w}");
+    }
     outln!(
         "{} scans over {:.0} m registered ({} more the motion filter skipped, each placed by its match alone) in {:.2} s{}",
         scans.len(),

@@ -159,7 +159,12 @@ pub fn run() -> Result<()> {
 
 /// Opens a dataset, with the path in the error.
 pub(crate) fn open_dataset(path: &std::path::Path) -> Result<pirouette::io::Dataset> {
-    pirouette::io::Dataset::open(path).with_context(|| format!("cannot open dataset {}", path.display()))
+    let ds = pirouette::io::Dataset::open(path)
+        .with_context(|| format!("cannot open dataset {}", path.display()))?;
+    for w in &ds.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(ds)
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).

@@ -502,6 +502,8 @@ pub struct Dataset {
     /// The frames' images where a bag holds them (the manifest's image
     /// paths are then `topic@stamp` labels); `None` for image files.
     pub bag_frames: Option<std::sync::Arc<crate::bag::camera::BagFrames>>,
+    /// Damage read past (a bag cut short, chunks skipped), one line each.
+    pub warnings: Vec<String>,
 }
 
 impl Dataset {
@@ -563,6 +565,7 @@ impl Dataset {
                 source: rig.clone(),
                 stamps: folder.stamps,
                 bag_frames: folder.bag_frames.map(std::sync::Arc::new),
+                warnings: folder.warnings,
             };
             ds.check(&rig)?;
             return Ok(ds);
@@ -610,6 +613,7 @@ impl Dataset {
             source,
             stamps: Vec::new(),
             bag_frames: None,
+            warnings: Vec::new(),
         };
         ds.check(&path)?;
         Ok(ds)

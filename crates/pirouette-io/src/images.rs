@@ -287,6 +287,8 @@ pub struct ImageFolder {
     /// The chosen frames' images, where they come from a bag (the
     /// manifest's image paths are then labels).
     pub bag_frames: Option<crate::bag::camera::BagFrames>,
+    /// Damage read past in a bag (cut short, chunks skipped).
+    pub warnings: Vec<String>,
 }
 
 fn relative_to(base: &Path, p: &str) -> PathBuf {
@@ -554,15 +556,16 @@ impl ImageFolder {
             frames,
         };
         let stamps = chosen.iter().map(|&(k, _)| stamped[k].t).collect();
-        let (root, bag_frames) = match source {
-            Source::Files(f) => (f.root, None),
+        let (root, bag_frames, warnings) = match source {
+            Source::Files(f) => (f.root, None, Vec::new()),
             Source::Bag(b) => {
                 let positions: Vec<usize> = chosen.iter().map(|&(k, _)| k).collect();
                 let frames = b.frames(&positions)?;
                 let first = frames.decode(0)?;
                 let label = PathBuf::from(format!("{} (topic {})", b.path.display(), b.topic));
                 check_size(&calib_path, &calib, &label, first.width(), first.height())?;
-                (b.path.parent().unwrap_or(Path::new(".")).to_owned(), Some(frames))
+                let root = b.path.parent().unwrap_or(Path::new(".")).to_owned();
+                (root, Some(frames), b.warnings)
             }
         };
         Ok(Self {
@@ -572,6 +575,7 @@ impl ImageFolder {
             manifest,
             stamps,
             bag_frames,
+            warnings,
         })
     }
 }

@@ -40,6 +40,8 @@ pub struct CameraBag {
     pub odometry: Vec<(f64, Pose2)>,
     /// Odometry messages stamped before the previous, skipped.
     pub skipped_odometry: usize,
+    /// Damage read past (a ROS 1 bag cut short, chunks skipped).
+    pub warnings: Vec<String>,
 }
 
 /// The chosen frames' image messages, held to be decoded when loaded.
@@ -138,6 +140,7 @@ impl CameraBag {
             stamps: Vec::new(),
             odometry: Vec::new(),
             skipped_odometry: 0,
+            warnings: Vec::new(),
         };
         while let Some(m) = source.next_message()? {
             let bad = |p: String| {
@@ -191,6 +194,7 @@ impl CameraBag {
                 format!("no image on topic {}", out.topic),
             ));
         }
+        out.warnings = source.warnings();
         Ok(out)
     }
 

@@ -79,6 +79,11 @@ pub trait MessageSource {
     /// The next message in the bag's order; `None` at the end. After an
     /// error the reader is not asked again ([`BagScans`] stops).
     fn next_message(&mut self) -> Result<Option<RawMessage>, IoError>;
+    /// Damage read past so far, one line each naming the file (a ROS 1
+    /// bag cut short, chunks skipped).
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Which topics to read where a bag has several of a kind.
@@ -103,6 +108,8 @@ pub struct LogInfo {
     pub mount: Pose2,
     /// Messages skipped, and why.
     pub skipped: Vec<(String, usize)>,
+    /// Damage read past (a bag cut short, chunks skipped), one line each.
+    pub warnings: Vec<String>,
 }
 
 /// The most transforms kept from `/tf_static`.
@@ -317,6 +324,7 @@ impl BagScans {
             motion,
             mount: self.mount.unwrap_or(Pose2::IDENTITY),
             skipped,
+            warnings: self.source.warnings(),
         }
     }
 
@@ -579,6 +587,7 @@ impl LaserLog {
                 motion: None,
                 mount: Pose2::IDENTITY,
                 skipped: Vec::new(),
+                warnings: Vec::new(),
             },
             LaserLog::Bag(b) => b.info(),
         }

@@ -13,6 +13,12 @@
 //! the end (the bag header's `index_pos`); a bag without one (its
 //! recording cut short) is read once through for its connections, and
 //! its messages are sorted within each chunk only.
+//!
+//! Damage: a bag cut short inside a record ends there: the messages
+//! before the cut are handed out, and [`MessageSource::warnings`] names
+//! the byte. A chunk that fails to decompress, or whose records do not
+//! fit in it, is skipped whole, each such chunk named in the warnings; a
+//! bag whose every chunk fails is refused. (docs/bags.md)
 
 use super::{Connection, MessageSource, RawMessage};
 use crate::IoError;
@@ -119,13 +125,35 @@ fn read_exact_bounded(input: &mut impl Read, len: u32) -> std::io::Result<Option
     Ok((buf.len() == len as usize).then_some(buf))
 }
 
+/// Fills `buf` as far as the input goes: the bytes read, fewer than
+/// `buf.len()` only at the end of the input.
+fn read_up_to(input: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match input.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
+/// What is wrong, without the file's name (the warning names it once).
+fn problem(e: &IoError) -> String {
+    match e {
+        IoError::Invalid { problem, .. } => problem.clone(),
+        other => other.to_string(),
+    }
+}
+
 /// The reader of a ROS 1 bag.
 pub struct Ros1Bag {
     path: PathBuf,
     input: BufReader<std::fs::File>,
     /// The offset of the next record in the file.
     offset: u64,
-    file_len: u64,
     /// The connections, in the order first declared.
     connections: Vec<Connection>,
     /// A connection's id in the bag → its place in `connections`.
@@ -145,6 +173,12 @@ pub struct Ros1Bag {
     /// Messages read so far (orders equal times by the file).
     read: u64,
     eof: bool,
+    /// Where the file ends inside a record, if it does.
+    cut_at: Option<u64>,
+    /// Chunks skipped: offset and why.
+    bad_chunks: Vec<(u64, String)>,
+    /// Chunks read whole.
+    good_chunks: usize,
 }
 
 impl Ros1Bag {
@@ -164,7 +198,6 @@ impl Ros1Bag {
             path: path.to_owned(),
             input,
             offset: MAGIC.len() as u64,
-            file_len,
             connections: Vec::new(),
             ids: HashMap::new(),
             chunk: Vec::new(),
@@ -175,11 +208,19 @@ impl Ros1Bag {
             release_before: 0,
             read: 0,
             eof: false,
+            cut_at: None,
+            bad_chunks: Vec::new(),
+            good_chunks: 0,
         };
         let first_offset = bag.offset;
-        let header = bag
-            .read_record()?
-            .ok_or_else(|| bag.bad(first_offset, "no bag header record"))?;
+        let header = bag.read_record()?.ok_or_else(|| {
+            let why = if bag.cut_at.is_some() {
+                "the bag is cut short in its header record"
+            } else {
+                "no bag header record"
+            };
+            bag.bad(first_offset, why)
+        })?;
         let fields = Fields::parse(&header.header).map_err(|p| bag.bad(first_offset, p))?;
         if fields.op().map_err(|p| bag.bad(first_offset, p))? != OP_BAG_HEADER {
             return Err(bag.bad(first_offset, "the first record is not the bag header"));
@@ -233,37 +274,42 @@ impl Ros1Bag {
         Ok(())
     }
 
-    /// The next record of the file; `None` at its end.
+    /// The next record of the file; `None` at its end, or where the file
+    /// ends inside a record (`cut_at` then names its offset).
     fn read_record(&mut self) -> Result<Option<Record>, IoError> {
         let at = self.offset;
+        let cut = |s: &mut Self| {
+            s.cut_at = Some(at);
+            Ok(None)
+        };
         let mut len = [0u8; 4];
-        match self
-            .input
-            .read(&mut len[..1])
-            .map_err(|e| IoError::io(&self.path, e))?
-        {
-            0 => return Ok(None),
-            _ => self
-                .input
-                .read_exact(&mut len[1..])
-                .map_err(|_| self.bad(at, "the bag is cut short in a record's length"))?,
+        let got = read_up_to(&mut self.input, &mut len).map_err(|e| IoError::io(&self.path, e))?;
+        if got == 0 {
+            return Ok(None);
+        } else if got < len.len() {
+            return cut(self);
         }
         let header_len = u32::from_le_bytes(len);
-        if header_len > MAX_HEADER_BYTES || u64::from(header_len) > self.file_len.saturating_sub(at) {
+        if header_len > MAX_HEADER_BYTES {
             return Err(self.bad(at, format!("a record header of {header_len} bytes")));
         }
-        let cut = |s: &Self| s.bad(at, "the bag is cut short in a record");
-        let header = read_exact_bounded(&mut self.input, header_len)
-            .map_err(|e| IoError::io(&self.path, e))?
-            .ok_or_else(|| cut(self))?;
-        self.input.read_exact(&mut len).map_err(|_| cut(self))?;
+        let Some(header) =
+            read_exact_bounded(&mut self.input, header_len).map_err(|e| IoError::io(&self.path, e))?
+        else {
+            return cut(self);
+        };
+        if read_up_to(&mut self.input, &mut len).map_err(|e| IoError::io(&self.path, e))? < len.len() {
+            return cut(self);
+        }
         let data_len = u32::from_le_bytes(len);
         if data_len > MAX_DATA_BYTES {
             return Err(self.bad(at, format!("a record of {data_len} bytes")));
         }
-        let data = read_exact_bounded(&mut self.input, data_len)
-            .map_err(|e| IoError::io(&self.path, e))?
-            .ok_or_else(|| cut(self))?;
+        let Some(data) =
+            read_exact_bounded(&mut self.input, data_len).map_err(|e| IoError::io(&self.path, e))?
+        else {
+            return cut(self);
+        };
         self.offset = at + 8 + u64::from(header_len) + u64::from(data_len);
         Ok(Some(Record { header, data }))
     }
@@ -415,8 +461,15 @@ impl Ros1Bag {
             let fields = Fields::parse(&record.header).map_err(|p| self.bad(at, p))?;
             match fields.op().map_err(|p| self.bad(at, p))? {
                 OP_CHUNK => {
-                    self.open_chunk(record, at)?;
-                    self.drain_chunk()?;
+                    // A damaged chunk is skipped whole (none of its
+                    // messages handed out), and named in the warnings.
+                    if let Err(e) = self.open_chunk(record, at).and_then(|()| self.drain_chunk()) {
+                        self.chunk.clear();
+                        self.chunk_at = 0;
+                        self.bad_chunks.push((at, problem(&e)));
+                        continue;
+                    }
+                    self.good_chunks += 1;
                     // What starts a later chunk waits for it.
                     let i = self.later_start.partition_point(|&(pos, _)| pos <= at);
                     self.release_before = self.later_start.get(i).map_or(u64::MAX, |&(_, t)| t);
@@ -455,6 +508,10 @@ impl Ros1Bag {
             }
             if !self.load()? {
                 self.eof = true;
+                if self.good_chunks == 0 && !self.bad_chunks.is_empty() {
+                    let (at, why) = &self.bad_chunks[0];
+                    return Err(self.bad(*at, format!("no chunk of the bag can be read (the first: {why})")));
+                }
             }
         }
     }
@@ -475,5 +532,23 @@ impl MessageSource for Ros1Bag {
 
     fn next_message(&mut self) -> Result<Option<RawMessage>, IoError> {
         self.next_raw()
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if let Some(at) = self.cut_at {
+            w.push(format!(
+                "{}: the bag is cut short inside the record at byte {at}: what came before it is read",
+                self.path.display()
+            ));
+        }
+        if let Some((at, why)) = self.bad_chunks.first() {
+            w.push(format!(
+                "{}: {} chunk(s) skipped, their messages lost; the first at byte {at}: {why}",
+                self.path.display(),
+                self.bad_chunks.len()
+            ));
+        }
+        w
     }
 }

@@ -394,6 +394,7 @@ impl<'c> Mapper<'c> {
                 motion: None,
                 mount: Pose2::IDENTITY,
                 skipped: Vec::new(),
+                warnings: Vec::new(),
             },
             loops: self.loops.into_iter().map(|(l, _)| l).collect(),
             loop_searches: self.keyframes.searches,
