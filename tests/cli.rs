@@ -153,3 +153,44 @@ fn camera_overlay_writes_one_picture_per_frame() {
     assert!(!run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("not a folder"));
 }
+
+/// `eval suite --check` fails on a gated target the build misses, after
+/// writing the scoreboard, and passes where the gate holds.
+#[test]
+fn suite_check_fails_on_a_gated_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let corpus = dir.path().join("corpus.toml");
+    let run = |gate: &str| {
+        std::fs::write(
+            &corpus,
+            format!(
+                "format = 1\n[targets.camera]\nate_aligned_m = {{ max = 0.000001{gate} }}\n\
+                 f1 = {{ min = 0.5, gate = true }}\n\
+                 [[camera]]\nscene = \"field-pirouette\"\nseeds = [1]\n"
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join("board");
+        let o = pirouette(&[
+            "eval",
+            "suite",
+            "--corpus",
+            corpus.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--check",
+        ]);
+        let md = std::fs::read_to_string(out.join("scoreboard.md")).unwrap();
+        (o, md)
+    };
+    // Short of an ungated target: a row of the board, and check passes.
+    let (o, md) = run("");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(md.contains("**ate_aligned_m**") && md.contains("none."), "{md}");
+    // The same target gated: exit 1, the case and figure named.
+    let (o, md) = run(", gate = true");
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("field-pirouette seed 1: ate_aligned_m"), "{err}");
+    assert!(md.contains("- field-pirouette seed 1: ate_aligned_m"), "{md}");
+}

@@ -27,7 +27,10 @@ mod sweep;
 /// Maps from a cheap camera: Radial Obstacle Profiles, vision-based
 /// pirouettes and occupancy grids.
 #[derive(Parser, Debug)]
-#[command(name = "pirouette", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "pirouette",
+    version = concat!(env!("CARGO_PKG_VERSION"), " (", env!("PIROUETTE_COMMIT"), ")"),
+    about, long_about = None, propagate_version = true)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

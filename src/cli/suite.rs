@@ -2,7 +2,7 @@
 //! command's time and peak memory, for the suite.
 
 use anyhow::{bail, Context, Result};
-use pirouette::eval::suite::{prepare, run_cases, Corpus, Kind, Runner, Scoreboard, SuiteConfig};
+use pirouette::eval::suite::{prepare, run_cases, Corpus, Kind, Provenance, Runner, Scoreboard, SuiteConfig};
 use std::ffi::OsString;
 use std::path::PathBuf;
 
@@ -35,6 +35,11 @@ pub struct SuiteArgs {
     /// not disturbed; else the number of cores].
     #[arg(long)]
     jobs: Option<usize>,
+    /// Exit 1 on a loss of quality: with --base, a case missing a target
+    /// it met at the base; without, a case failing a gated target
+    /// (`gate` in the corpus). The scoreboard is written first.
+    #[arg(long)]
+    check: bool,
 }
 
 /// The most timed runs per case and build.
@@ -96,6 +101,7 @@ pub fn suite(a: SuiteArgs) -> Result<()> {
             making: Default::default(),
         },
     };
+    let start = std::time::Instant::now();
     let bar = super::progress(cases.len(), "cases");
     let ticker = |id: &str| {
         bar.set_message(id.chars().take(28).collect::<String>());
@@ -103,7 +109,9 @@ pub fn suite(a: SuiteArgs) -> Result<()> {
     };
     let results = run_cases(&runner, &cases, &config, &out.join("runs"), &ticker);
     bar.finish_and_clear();
-    let board = Scoreboard::new(&corpus, results, &config, &runner.this);
+    let mut provenance = Provenance::here(config.base.as_deref());
+    provenance.wall_s = start.elapsed().as_secs_f64();
+    let board = Scoreboard::new(&corpus, results, &config, &runner.this, provenance);
     board.write(&out)?;
     for (kind, sum) in &board.summary {
         let short: Vec<String> = (sum.figures.iter())
@@ -136,6 +144,24 @@ pub fn suite(a: SuiteArgs) -> Result<()> {
     let failed = board.rows.iter().filter(|r| r.error.is_some()).count();
     if failed > 0 {
         bail!("{failed} case(s) failed to run with this build (see scoreboard.md)");
+    }
+    if a.check {
+        let failures = board.check_failures();
+        if !failures.is_empty() {
+            for f in &failures {
+                eprintln!("check: {f}");
+            }
+            bail!(
+                "--check: {} target(s) {} (see scoreboard.md)",
+                failures.len(),
+                if config.base.is_some() {
+                    "met at the base are missed"
+                } else {
+                    "gated in the corpus are failed"
+                }
+            );
+        }
+        outln!("check: passed")?;
     }
     Ok(())
 }

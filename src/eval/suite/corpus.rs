@@ -42,29 +42,154 @@ impl Kind {
     }
 }
 
-/// A target on one figure: at most `max`, at least `min`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// A target on one figure: at most `max`, at least `min`; `gate` makes
+/// `eval suite --check` fail on it (CI's quality gate).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bound {
     /// The least value that meets the target.
     pub min: Option<f64>,
     /// The largest value that meets the target.
     pub max: Option<f64>,
+    /// `true`: a case short of the target fails `--check`; `{ max = X }`
+    /// or `{ min = X }`: a case beyond that limit does (a floor under a
+    /// target some cases do not meet yet).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate: Option<Gate>,
+}
+
+/// How a target gates `eval suite --check`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Gate {
+    /// `gate = true`: the target is the gate; `false`: no gate.
+    Target(bool),
+    /// `gate = { max = X }`: a limit of its own.
+    Limit {
+        /// The least value that passes.
+        #[serde(default)]
+        min: Option<f64>,
+        /// The largest value that passes.
+        #[serde(default)]
+        max: Option<f64>,
+    },
 }
 
 impl Bound {
     /// Whether `value` meets the target.
     pub fn holds(&self, value: f64) -> bool {
-        self.min.is_none_or(|m| value >= m) && self.max.is_none_or(|m| value <= m)
+        within(self.min, self.max, value)
+    }
+
+    /// Whether `value` (`None`: the figure is missing) fails the gate;
+    /// never without one.
+    pub fn gate_fails(&self, value: Option<f64>) -> bool {
+        match self.gate {
+            None | Some(Gate::Target(false)) => false,
+            Some(Gate::Target(true)) => !value.is_some_and(|v| self.holds(v)),
+            Some(Gate::Limit { min, max }) => !value.is_some_and(|v| within(min, max, v)),
+        }
+    }
+
+    /// The gate as text, if any: `≤ 0.06`.
+    pub fn gate_text(&self) -> Option<String> {
+        match self.gate {
+            None | Some(Gate::Target(false)) => None,
+            Some(Gate::Target(true)) => Some(self.text()),
+            Some(Gate::Limit { min, max }) => Some(range_text(min, max)),
+        }
     }
 
     /// The target as text: `≤ 0.02`, `≥ 0.9`.
     pub fn text(&self) -> String {
-        match (self.min, self.max) {
-            (Some(lo), Some(hi)) => format!("{lo}-{hi}"),
-            (Some(lo), None) => format!("≥ {lo}"),
-            (None, Some(hi)) => format!("≤ {hi}"),
-            (None, None) => "-".into(),
+        range_text(self.min, self.max)
+    }
+
+    fn check(&self, figure: &str) -> Result<()> {
+        let finite = |v: Option<f64>| v.is_none_or(f64::is_finite);
+        if self.min.is_none() && self.max.is_none() {
+            bail!("target {figure}: give `min` or `max`");
+        }
+        if !finite(self.min) || !finite(self.max) {
+            bail!("target {figure}: limits must be finite numbers");
+        }
+        if let Some(Gate::Limit { min, max }) = self.gate {
+            if (min.is_none() && max.is_none()) || !finite(min) || !finite(max) {
+                bail!("target {figure}: a gate's `min` or `max` must be a finite number");
+            }
+            // A gate looser than the target, in the target's direction.
+            let looser = min.is_none_or(|g| self.min.is_some_and(|t| g <= t))
+                && max.is_none_or(|g| self.max.is_some_and(|t| g >= t));
+            if !looser {
+                bail!("target {figure}: its gate must be looser than the target, on the same side");
+            }
+        }
+        Ok(())
+    }
+}
+
+fn within(min: Option<f64>, max: Option<f64>, value: f64) -> bool {
+    min.is_none_or(|m| value >= m) && max.is_none_or(|m| value <= m)
+}
+
+fn range_text(min: Option<f64>, max: Option<f64>) -> String {
+    match (min, max) {
+        (Some(lo), Some(hi)) => format!("{lo}-{hi}"),
+        (Some(lo), None) => format!("≥ {lo}"),
+        (None, Some(hi)) => format!("≤ {hi}"),
+        (None, None) => "-".into(),
+    }
+}
+
+/// The figures a camera case gives.
+const CAMERA_FIGURES: &[&str] = &[
+    "missed",
+    "false_range",
+    "wrong_verified",
+    "max_verified_error_deg",
+    "ate_aligned_m",
+    "f1",
+];
+/// A places case's figures; the first three are given whatever the
+/// answers (the rest need an answer, or a right one).
+const PLACES_FIGURES: &[&str] = &[
+    "recall_at_1",
+    "far_wrong",
+    "answers",
+    "precision",
+    "pose_error_max_deg",
+    "pose_error_max_m",
+];
+/// A laser log's, as recorded; a variant adds `rpe_1m_vs_odometry`.
+const LASER_FIGURES: &[&str] = &[
+    "ate_m",
+    "rpe_1m_m",
+    "rpe_1m_deg",
+    "wrong_unmarked_share",
+    "rpe_1m_vs_odometry",
+];
+/// A benchmark bag's.
+const BAG_FIGURES: &[&str] = &[
+    "relations_trans_m",
+    "relations_rot_deg",
+    "relations_unmatched",
+    "relations_trans_vs_cartographer",
+    "relations_rot_vs_cartographer",
+    "time_vs_cartographer",
+];
+/// A pose graph's as published or perturbed ...
+const GRAPH_FIGURES: &[&str] = &["chi2_final", "iterations", "chi2_vs_reference"];
+/// ... and with outliers.
+const OUTLIER_GRAPH_FIGURES: &[&str] = &["chi2_final", "iterations", "inlier_chi2_vs_reference"];
+
+impl Kind {
+    /// Every figure a case of this kind can give (docs/scoreboard.md).
+    pub fn figures(self) -> Vec<&'static str> {
+        match self {
+            Kind::Camera => CAMERA_FIGURES.to_vec(),
+            Kind::Places => PLACES_FIGURES.to_vec(),
+            Kind::Laser => [LASER_FIGURES, BAG_FIGURES].concat(),
+            Kind::Graph => [GRAPH_FIGURES, &OUTLIER_GRAPH_FIGURES[2..]].concat(),
         }
     }
 }
@@ -211,11 +336,38 @@ pub struct Case {
     pub kind: Kind,
     /// Whether `--quick` runs it.
     pub quick: bool,
+    /// Places of a scene where every place has a look-alike: answers are
+    /// right or ambiguous, and none at all is no miss.
+    pub look_alike: bool,
     /// What it runs on.
     pub input: Input,
 }
 
 impl Case {
+    /// The figures a run of this case must give: a target on one of them
+    /// that the run leaves out is missed, not met. A places case of a
+    /// look-alike scene need not answer (its places may all be
+    /// ambiguous), so precision and pose errors are required only where
+    /// it does.
+    pub fn required(&self) -> &'static [&'static str] {
+        match &self.input {
+            Input::Camera(_) => CAMERA_FIGURES,
+            Input::Places { .. } if self.look_alike => &PLACES_FIGURES[..3],
+            Input::Places { .. } => PLACES_FIGURES,
+            Input::Laser {
+                variant: LaserVariant::AsRecorded,
+                ..
+            } => &LASER_FIGURES[..4],
+            Input::Laser { .. } => LASER_FIGURES,
+            Input::Bag { .. } => BAG_FIGURES,
+            Input::Graph {
+                variant: GraphVariant::Outliers10,
+                ..
+            } => OUTLIER_GRAPH_FIGURES,
+            Input::Graph { .. } => GRAPH_FIGURES,
+        }
+    }
+
     /// Whether the case reads `$PIROUETTE_SHARED`.
     pub fn needs_shared(&self) -> bool {
         let shared = |s: &Source| matches!(s, Source::Shared(_));
@@ -289,6 +441,9 @@ struct PlacesGroup {
     /// Whether `--quick` runs the group's first pair.
     #[serde(default)]
     quick: bool,
+    /// Every place of the scene has a look-alike (`Case::look_alike`).
+    #[serde(default)]
+    look_alike: bool,
 }
 
 #[derive(Deserialize)]
@@ -325,6 +480,7 @@ impl BagGroup {
             id: format!("{}.bag", self.name),
             kind: Kind::Laser,
             quick: self.quick,
+            look_alike: false,
             input: Input::Bag {
                 name: self.name.clone(),
                 cartographer_trans_m: self.cartographer_trans_m,
@@ -396,6 +552,21 @@ impl Corpus {
                 file.format
             );
         }
+        for (kind, targets) in &file.targets {
+            let known = kind.figures();
+            for (figure, bound) in targets {
+                if !known.contains(&figure.as_str()) {
+                    bail!(
+                        "{}: [targets.{}] {figure}: no such figure (a {} case gives {})",
+                        path.display(),
+                        kind.name(),
+                        kind.name(),
+                        known.join(", ")
+                    );
+                }
+                bound.check(figure).with_context(|| path.display().to_string())?;
+            }
+        }
         let mut cases = Vec::new();
         let expand = |cases: &mut Vec<Case>| -> Result<()> {
             for g in &file.camera {
@@ -450,6 +621,7 @@ impl CameraGroup {
                         id: name.clone(),
                         kind: Kind::Camera,
                         quick: quick.contains(name),
+                        look_alike: false,
                         input: Input::Camera(Source::Shared(name.clone())),
                     });
                 }
@@ -470,6 +642,7 @@ impl CameraGroup {
                         id: source.label(),
                         kind: Kind::Camera,
                         quick: quick.contains(&seed.to_string()),
+                        look_alike: false,
                         input: Input::Camera(source),
                     });
                 }
@@ -496,6 +669,7 @@ impl PlacesGroup {
                 id: format!("{} / {}", index.label(), query.label()),
                 kind: Kind::Places,
                 quick: self.quick && i == 0,
+                look_alike: self.look_alike,
                 input: Input::Places { index, query },
             });
         }
@@ -513,6 +687,7 @@ impl LaserGroup {
                 let id = format!("{log}:{v}");
                 cases.push(Case {
                     quick: self.quick.contains(&id),
+                    look_alike: false,
                     id,
                     kind: Kind::Laser,
                     input: Input::Laser {
@@ -537,6 +712,7 @@ impl GraphGroup {
             let id = format!("{}:{v}", self.file);
             cases.push(Case {
                 quick: self.quick.contains(&id),
+                look_alike: false,
                 id,
                 kind: Kind::Graph,
                 input: Input::Graph {
@@ -599,14 +775,47 @@ mod tests {
     #[test]
     fn bounds_hold_at_their_edges() {
         let b = Bound {
-            min: None,
             max: Some(0.02),
+            ..Bound::default()
         };
         assert!(b.holds(0.02) && !b.holds(0.0201));
         let b = Bound {
             min: Some(1.0),
-            max: None,
+            ..Bound::default()
         };
         assert!(b.holds(1.0) && !b.holds(0.99));
+    }
+
+    #[test]
+    fn targets_name_known_figures_and_gates_parse() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.toml");
+        let read = |text: &str| {
+            std::fs::write(&p, text).unwrap();
+            Corpus::read(&p).map_err(|e| format!("{e:#}"))
+        };
+        let err = read("format = 1\n[targets.places]\nprecission = { min = 1.0 }\n").unwrap_err();
+        assert!(
+            err.contains("c.toml") && err.contains("precission") && err.contains("no such figure"),
+            "{err}"
+        );
+        let err =
+            read("format = 1\n[targets.camera]\nf1 = { min = 0.9, gate = { min = 0.95 } }\n").unwrap_err();
+        assert!(err.contains("looser"), "{err}");
+        let err = read("format = 1\n[targets.camera]\nf1 = { gate = true }\n").unwrap_err();
+        assert!(err.contains("min") && err.contains("max"), "{err}");
+        let c = read(
+            "format = 1\n[targets.camera]\nf1 = { min = 0.9, gate = true }\nmissed = { max = 0.02, gate = { max = 0.06 } }\n",
+        )
+        .unwrap();
+        let (f1, missed) = (c.targets[&Kind::Camera]["f1"], c.targets[&Kind::Camera]["missed"]);
+        assert!(!f1.gate_fails(Some(0.9)) && f1.gate_fails(Some(0.89)) && f1.gate_fails(None));
+        assert!(!missed.gate_fails(Some(0.05)) && missed.gate_fails(Some(0.061)));
+        assert_eq!(missed.gate_text().as_deref(), Some("≤ 0.06"));
+        let ungated = Bound {
+            max: Some(0.02),
+            ..Bound::default()
+        };
+        assert!(!ungated.gate_fails(Some(1.0)) && !ungated.gate_fails(None));
     }
 }

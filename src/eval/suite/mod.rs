@@ -12,7 +12,7 @@ pub mod report;
 pub mod run;
 
 pub use corpus::{Bound, Case, Corpus, Kind};
-pub use report::{Scoreboard, Summary};
+pub use report::{Provenance, Scoreboard, Summary};
 pub use run::{Outcome, Runner, Usage};
 
 use rayon::prelude::*;

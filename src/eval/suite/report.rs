@@ -11,11 +11,13 @@ use std::path::Path;
 
 /// Which way a figure is better, and how far it may move between builds
 /// before it counts as worse (the figures are deterministic; these are
-/// the changes too small to matter).
+/// the changes too small to matter). A figure made of a wall clock moves
+/// as its time does: its noise is the timing noise, relative.
 struct FigureInfo {
     name: &'static str,
     lower_is_better: bool,
     noise: f64,
+    timed: bool,
 }
 
 const FIGURES: &[FigureInfo] = &[
@@ -40,7 +42,12 @@ const FIGURES: &[FigureInfo] = &[
     fig("relations_unmatched", true, 0.0),
     fig("relations_trans_vs_cartographer", true, 0.02),
     fig("relations_rot_vs_cartographer", true, 0.02),
-    fig("time_vs_cartographer", true, 0.005),
+    FigureInfo {
+        name: "time_vs_cartographer",
+        lower_is_better: true,
+        noise: 0.0,
+        timed: true,
+    },
     fig("chi2_vs_reference", true, 0.001),
     fig("inlier_chi2_vs_reference", true, 0.001),
 ];
@@ -50,6 +57,7 @@ const fn fig(name: &'static str, lower_is_better: bool, noise: f64) -> FigureInf
         name,
         lower_is_better,
         noise,
+        timed: false,
     }
 }
 
@@ -67,13 +75,14 @@ fn headline(kind: Kind) -> &'static str {
     }
 }
 
-/// A figure short of its target.
+/// A figure short of its target, or missing from a case that must give
+/// it.
 #[derive(Debug, Clone, Serialize)]
 pub struct Miss {
     /// The figure.
     pub figure: String,
-    /// Its value.
-    pub value: f64,
+    /// Its value; `None` when the case did not give it.
+    pub value: Option<f64>,
     /// The target, as text.
     pub target: String,
 }
@@ -113,6 +122,10 @@ pub struct Row {
     pub speed_ratio: Option<f64>,
     /// Figures worse than the base's by more than their noise.
     pub regressions: Vec<Regression>,
+    /// Targets this build misses that the base met.
+    pub lost: Vec<String>,
+    /// Gated targets (`gate` in the corpus) this build fails.
+    pub gate_failures: Vec<String>,
 }
 
 /// One figure over a kind's cases.
@@ -120,14 +133,16 @@ pub struct Row {
 pub struct FigureSummary {
     /// The target, as text.
     pub target: String,
-    /// The worst case and its value.
+    /// The worst case given the figure.
     pub worst_case: String,
-    /// The worst value.
-    pub worst: f64,
-    /// The median over the cases.
-    pub median: f64,
-    /// Cases short of the target.
+    /// Its value (`None`: no case gave the figure).
+    pub worst: Option<f64>,
+    /// The median over the cases that gave it.
+    pub median: Option<f64>,
+    /// Cases short of the target, or missing the figure they must give.
     pub misses: Vec<String>,
+    /// The gate `--check` holds the figure to, as text, if any.
+    pub gate: Option<String>,
 }
 
 /// A kind's summary.
@@ -150,9 +165,77 @@ pub struct Summary {
     pub regressed: Vec<String>,
 }
 
+/// Where and when a scoreboard was made, so that its figures can be
+/// reproduced and compared.
+#[derive(Debug, Clone, Serialize)]
+pub struct Provenance {
+    /// The commit this build comes from (`-modified`: with changes).
+    pub commit: String,
+    /// The base build's `--version`, if any.
+    pub base_version: Option<String>,
+    /// The processor, as `lscpu` names it.
+    pub cpu: String,
+    /// Cores this process may use.
+    pub cores: usize,
+    /// The day of the run, UTC (`YYYY-MM-DD`).
+    pub date: String,
+    /// The command line.
+    pub command: String,
+    /// The run's wall clock, seconds (0 until the caller sets it).
+    pub wall_s: f64,
+}
+
+impl Provenance {
+    /// This process's: the build's commit, this machine, today.
+    pub fn here(base: Option<&Path>) -> Provenance {
+        let base_version = base.and_then(|b| {
+            let out = std::process::Command::new(b).arg("--version").output().ok()?;
+            Some(String::from_utf8_lossy(&out.stdout).trim().to_string())
+        });
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|t| {
+                t.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split_once(':'))
+                    .map(|(_, v)| v.trim().to_string())
+            })
+            .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+        let days = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs() / 86_400) as i64;
+        let (y, m, d) = civil_date(days);
+        Provenance {
+            commit: env!("PIROUETTE_COMMIT").to_string(),
+            base_version,
+            cpu,
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            date: format!("{y:04}-{m:02}-{d:02}"),
+            command: std::env::args().collect::<Vec<_>>().join(" "),
+            wall_s: 0.0,
+        }
+    }
+}
+
+/// The proleptic Gregorian date of a day counted from 1970-01-01 (the
+/// days-to-civil algorithm of H. Hinnant's date library).
+fn civil_date(days: i64) -> (i64, u32, u32) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
 /// The whole scoreboard.
 #[derive(Debug, Clone, Serialize)]
 pub struct Scoreboard {
+    /// Build, machine, day and command.
+    pub provenance: Provenance,
     /// The corpus file.
     pub corpus: String,
     /// Whether only the quick cases ran.
@@ -234,20 +317,42 @@ fn spread(times: &[f64]) -> f64 {
     }
 }
 
+/// The targets `figures` misses: short of the bound, or missing where
+/// the case must give the figure.
+fn misses(
+    figures: &BTreeMap<String, f64>,
+    targets: &BTreeMap<String, Bound>,
+    required: &[&str],
+) -> Vec<Miss> {
+    (targets.iter())
+        .filter_map(|(name, b)| {
+            let value = figures.get(name).copied();
+            let missed = match value {
+                Some(v) => !b.holds(v),
+                None => required.contains(&name.as_str()),
+            };
+            missed.then(|| Miss {
+                figure: name.clone(),
+                value,
+                target: b.text(),
+            })
+        })
+        .collect()
+}
+
 fn row(r: &CaseResult, targets: &BTreeMap<String, Bound>) -> Row {
     let (figures, error) = match &r.this {
         Ok(o) => (with_time(o), None),
         Err(e) => (BTreeMap::new(), Some(e.clone())),
     };
-    let misses = (targets.iter())
-        .filter_map(|(name, b)| {
-            let v = *figures.get(name)?;
-            (!b.holds(v)).then(|| Miss {
-                figure: name.clone(),
-                value: v,
-                target: b.text(),
-            })
+    let required = r.case.required();
+    let misses = misses(&figures, targets, required);
+    let gate_failures = (targets.iter())
+        .filter(|(name, b)| {
+            let value = figures.get(*name).copied();
+            (value.is_some() || required.contains(&name.as_str())) && b.gate_fails(value)
         })
+        .map(|(name, _)| name.clone())
         .collect();
     let (base, base_error) = match &r.base {
         Some(Ok(o)) => (Some(with_time(o)), None),
@@ -255,19 +360,31 @@ fn row(r: &CaseResult, targets: &BTreeMap<String, Bound>) -> Row {
         None => (None, None),
     };
     let mut regressions = Vec::new();
+    let mut lost = Vec::new();
     let mut speed_ratio = None;
+    if let Some(b) = &base {
+        let base_misses = self::misses(b, targets, required);
+        lost = (misses.iter())
+            .filter(|m| !base_misses.iter().any(|bm| bm.figure == m.figure))
+            .map(|m| m.figure.clone())
+            .collect();
+    }
     if let (Some(b), false) = (&base, figures.is_empty()) {
+        // Timing noise: the larger relative spread of either build's runs,
+        // at least 5 %.
+        let time_noise = spread(&r.times_s).max(spread(&r.base_times_s)).max(0.05);
         for (name, &v) in &figures {
             let (Some(fi), Some(&bv)) = (info(name), b.get(name)) else {
                 continue;
             };
+            let noise = if fi.timed { time_noise * bv.abs() } else { fi.noise };
             let worse = if fi.lower_is_better { v - bv } else { bv - v };
-            if worse > fi.noise + 1e-12 {
+            if worse > noise + 1e-12 {
                 regressions.push(Regression {
                     figure: name.clone(),
                     value: v,
                     base: bv,
-                    noise: fi.noise,
+                    noise,
                 });
             }
         }
@@ -275,13 +392,12 @@ fn row(r: &CaseResult, targets: &BTreeMap<String, Bound>) -> Row {
             if t > 0.0 {
                 speed_ratio = Some(bt / t);
             }
-            let noise = spread(&r.times_s).max(spread(&r.base_times_s)).max(0.05);
-            if t > bt * (1.0 + noise) {
+            if t > bt * (1.0 + time_noise) {
                 regressions.push(Regression {
                     figure: "time_s".into(),
                     value: t,
                     base: bt,
-                    noise,
+                    noise: time_noise,
                 });
             }
         }
@@ -296,6 +412,8 @@ fn row(r: &CaseResult, targets: &BTreeMap<String, Bound>) -> Row {
         base_error,
         speed_ratio,
         regressions,
+        lost,
+        gate_failures,
     }
 }
 
@@ -328,24 +446,25 @@ fn summarise(rows: &[&Row], targets: &BTreeMap<String, Bound>) -> Summary {
             .iter()
             .filter_map(|r| Some((r.case.as_str(), *r.figures.get(&name)?)))
             .collect();
-        let Some(&(wc, w)) = vals
-            .iter()
-            .max_by(|a, b| badness(&name, a.1).total_cmp(&badness(&name, b.1)))
-        else {
+        let misses: Vec<String> = (rows.iter())
+            .filter(|r| r.misses.iter().any(|m| m.figure == name))
+            .map(|r| r.case.clone())
+            .collect();
+        if vals.is_empty() && misses.is_empty() {
             continue;
-        };
-        let bound = targets.get(&name);
+        }
+        let worst = vals
+            .iter()
+            .max_by(|a, b| badness(&name, a.1).total_cmp(&badness(&name, b.1)));
         figures.insert(
             name.clone(),
             FigureSummary {
-                target: bound.map_or("-".into(), Bound::text),
-                worst_case: wc.to_string(),
-                worst: w,
-                median: median(&mut vals.iter().map(|v| v.1).collect::<Vec<_>>()),
-                misses: (vals.iter())
-                    .filter(|(_, v)| bound.is_some_and(|b| !b.holds(*v)))
-                    .map(|(c, _)| c.to_string())
-                    .collect(),
+                target: targets.get(&name).map_or("-".into(), Bound::text),
+                gate: targets.get(&name).and_then(Bound::gate_text),
+                worst_case: worst.map_or(String::new(), |w| w.0.to_string()),
+                worst: worst.map(|w| w.1),
+                median: (!vals.is_empty()).then(|| median(&mut vals.iter().map(|v| v.1).collect::<Vec<_>>())),
+                misses,
             },
         );
     }
@@ -376,6 +495,7 @@ impl Scoreboard {
         mut results: Vec<CaseResult>,
         config: &super::SuiteConfig,
         binary: &Path,
+        provenance: Provenance,
     ) -> Scoreboard {
         add_relative(&mut results);
         let none = BTreeMap::new();
@@ -402,6 +522,7 @@ impl Scoreboard {
             })
             .collect();
         Scoreboard {
+            provenance,
             corpus: corpus.path.display().to_string(),
             quick: config.quick,
             binary: binary.display().to_string(),
@@ -421,6 +542,25 @@ impl Scoreboard {
             .count()
     }
 
+    /// What fails `eval suite --check`, one line each: with a base, the
+    /// targets a case met there and misses here; without, the gated
+    /// targets a case fails. Cases that failed to run are reported apart.
+    pub fn check_failures(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for r in &self.rows {
+            let (names, why) = if self.base.is_some() {
+                (&r.lost, "met at the base")
+            } else {
+                (&r.gate_failures, "gated")
+            };
+            for name in names {
+                let value = r.figures.get(name).map_or("missing".into(), |v| num(*v));
+                out.push(format!("{}: {name} {value} ({why})", r.case));
+            }
+        }
+        out
+    }
+
     /// Writes `scoreboard.json` and `scoreboard.md` into `dir`, atomically.
     pub fn write(&self, dir: &Path) -> Result<()> {
         let json = serde_json::to_vec_pretty(self)?;
@@ -433,7 +573,13 @@ impl Scoreboard {
     /// worst first.
     pub fn markdown(&self) -> String {
         let mut s = String::new();
+        let p = &self.provenance;
         let _ = writeln!(s, "# Scoreboard\n");
+        let _ = writeln!(
+            s,
+            "Commit {}, {} ({} cores), {}, {:.0} s: `{}`\n",
+            p.commit, p.cpu, p.cores, p.date, p.wall_s, p.command
+        );
         let _ = writeln!(
             s,
             "Corpus `{}`{}; build `{}`{}; time is the least of {} run(s), {} case(s) at once.\n",
@@ -459,13 +605,16 @@ impl Scoreboard {
                 } else {
                     format!("{}: {}", f.misses.len(), f.misses.join(", "))
                 };
+                let target = match &f.gate {
+                    Some(g) => format!("{} (gate {g})", f.target),
+                    None => f.target.clone(),
+                };
                 let _ = writeln!(
                     s,
-                    "| {name} | {} | {} | {} | {} | {short} |",
-                    f.target,
-                    num(f.worst),
+                    "| {name} | {target} | {} | {} | {} | {short} |",
+                    f.worst.map_or("missing".into(), num),
                     f.worst_case,
-                    num(f.median)
+                    f.median.map_or("-".into(), num)
                 );
             }
             if !sum.failed.is_empty() {
@@ -524,13 +673,32 @@ impl Scoreboard {
                     Some(e) => format!("**failed**: {e}"),
                     None if r.misses.is_empty() => "-".into(),
                     None => (r.misses.iter())
-                        .map(|m| format!("**{}** {} (target {})", m.figure, num(m.value), m.target))
+                        .map(|m| {
+                            let v = m.value.map_or("missing".into(), num);
+                            format!("**{}** {v} (target {})", m.figure, m.target)
+                        })
                         .collect::<Vec<_>>()
                         .join(", "),
                 };
                 let _ = writeln!(s, " {short} |");
             }
             s.push('\n');
+        }
+        let failures = self.check_failures();
+        let _ = writeln!(
+            s,
+            "## Check\n\n{}",
+            if self.base.is_some() {
+                "Targets met at the base and missed here (`--check` fails on them):"
+            } else {
+                "Gated targets failed (`--check` fails on them):"
+            }
+        );
+        if failures.is_empty() {
+            let _ = writeln!(s, "none.");
+        }
+        for f in failures {
+            let _ = writeln!(s, "- {f}");
         }
         s
     }
@@ -556,70 +724,97 @@ fn num(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::suite::corpus::{Case, Source};
+    use crate::eval::suite::corpus::{Case, Gate, Source};
     use crate::eval::suite::{Outcome, SuiteConfig};
 
-    fn result(id: &str, ate: f64, time: f64, base: Option<(f64, f64)>) -> CaseResult {
-        let outcome = |ate: f64, time: f64| Outcome {
-            figures: [("ate_aligned_m".to_string(), ate)].into(),
+    fn outcome(figures: &[(&str, f64)], time: f64) -> Outcome {
+        Outcome {
+            figures: figures.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
             time_s: time,
             peak_mb: 10.0,
-        };
-        CaseResult {
-            case: Case {
-                id: id.into(),
-                kind: Kind::Camera,
-                quick: false,
-                input: Input::Camera(Source::Shared(id.into())),
-            },
-            this: Ok(outcome(ate, time)),
-            times_s: vec![time, time * 1.01],
-            base: base.map(|(a, t)| Ok(outcome(a, t))),
-            base_times_s: base.map_or(vec![], |(_, t)| vec![t, t * 1.01]),
         }
     }
 
-    fn corpus() -> Corpus {
+    fn case(id: &str, kind: Kind, input: Input) -> Case {
+        Case {
+            id: id.into(),
+            kind,
+            quick: false,
+            look_alike: false,
+            input,
+        }
+    }
+
+    fn camera(id: &str) -> Case {
+        case(id, Kind::Camera, Input::Camera(Source::Shared(id.into())))
+    }
+
+    fn result(case: Case, this: Outcome, base: Option<Outcome>) -> CaseResult {
+        let t = this.time_s;
+        CaseResult {
+            case,
+            times_s: vec![t, t * 1.01],
+            base_times_s: base.as_ref().map_or(vec![], |b| vec![b.time_s, b.time_s * 1.01]),
+            this: Ok(this),
+            base: base.map(Ok),
+        }
+    }
+
+    fn ate(id: &str, ate: f64, time: f64, base: Option<(f64, f64)>) -> CaseResult {
+        result(
+            camera(id),
+            outcome(&[("ate_aligned_m", ate)], time),
+            base.map(|(a, t)| outcome(&[("ate_aligned_m", a)], t)),
+        )
+    }
+
+    fn bound(min: Option<f64>, max: Option<f64>, gate: Option<Gate>) -> Bound {
+        Bound { min, max, gate }
+    }
+
+    fn corpus(targets: &[(Kind, &str, Bound)]) -> Corpus {
+        let mut t: BTreeMap<Kind, BTreeMap<String, Bound>> = BTreeMap::new();
+        for (k, name, b) in targets {
+            t.entry(*k).or_default().insert(name.to_string(), *b);
+        }
         Corpus {
             path: "c.toml".into(),
-            targets: [(
-                Kind::Camera,
-                [(
-                    "ate_aligned_m".to_string(),
-                    Bound {
-                        min: None,
-                        max: Some(0.02),
-                    },
-                )]
-                .into(),
-            )]
-            .into(),
+            targets: t,
             cases: vec![],
         }
     }
 
-    #[test]
-    fn misses_come_first_and_the_summary_names_the_worst() {
-        let config = SuiteConfig {
+    fn config(base: bool) -> SuiteConfig {
+        SuiteConfig {
             quick: false,
             only: vec![],
-            base: Some("base".into()),
+            base: base.then(|| "base".into()),
             repeats: 2,
             jobs: 1,
-        };
+        }
+    }
+
+    fn board(corpus: &Corpus, results: Vec<CaseResult>, base: bool) -> Scoreboard {
+        let p = Provenance::here(None);
+        Scoreboard::new(corpus, results, &config(base), Path::new("this"), p)
+    }
+
+    #[test]
+    fn misses_come_first_and_the_summary_names_the_worst() {
+        let c = corpus(&[(Kind::Camera, "ate_aligned_m", bound(None, Some(0.02), None))]);
         let results = vec![
-            result("a", 0.010, 1.0, Some((0.010, 2.0))),
-            result("b", 0.030, 1.0, Some((0.020, 1.0))),
-            result("c", 0.015, 2.0, Some((0.015, 1.0))),
+            ate("a", 0.010, 1.0, Some((0.010, 2.0))),
+            ate("b", 0.030, 1.0, Some((0.020, 1.0))),
+            ate("c", 0.015, 2.0, Some((0.015, 1.0))),
         ];
-        let board = Scoreboard::new(&corpus(), results, &config, Path::new("this"));
+        let board = board(&c, results, true);
         let order: Vec<&str> = board.rows.iter().map(|r| r.case.as_str()).collect();
         assert_eq!(order, ["b", "c", "a"]);
         let sum = &board.summary[&Kind::Camera];
         let ate = &sum.figures["ate_aligned_m"];
         assert_eq!(
             (ate.worst_case.as_str(), ate.worst, ate.median),
-            ("b", 0.030, 0.015)
+            ("b", Some(0.030), Some(0.015))
         );
         assert_eq!(ate.misses, ["b"]);
         // b's ATE is 1 cm worse than the base's; c takes twice the base's time.
@@ -627,7 +822,133 @@ mod tests {
         assert_eq!(sum.slower_than_base, ["c"]);
         assert_eq!(sum.speed_ratio_min, Some(0.5));
         assert_eq!(board.short(), 1);
+        // b met the target at the base and misses it now.
+        assert_eq!(
+            board.check_failures(),
+            ["b: ate_aligned_m 0.03000 (met at the base)"]
+        );
         let md = board.markdown();
         assert!(md.contains("**ate_aligned_m** 0.03000 (target ≤ 0.02)"), "{md}");
+    }
+
+    /// A places case that answers nothing gives no precision: that is a
+    /// miss (and fails a gate), unless every place of its scene has a
+    /// look-alike.
+    #[test]
+    fn a_places_case_that_answers_nothing_misses_its_targets() {
+        let places = Input::Places {
+            index: Source::Shared("i".into()),
+            query: Source::Shared("q".into()),
+        };
+        let nothing = outcome(&[("answers", 0.0), ("recall_at_1", 0.0), ("far_wrong", 0.0)], 1.0);
+        let mut look_alike = case("symmetric", Kind::Places, places.clone());
+        look_alike.look_alike = true;
+        let c = corpus(&[
+            (
+                Kind::Places,
+                "precision",
+                bound(Some(1.0), None, Some(Gate::Target(true))),
+            ),
+            (
+                Kind::Places,
+                "far_wrong",
+                bound(None, Some(0.0), Some(Gate::Target(true))),
+            ),
+        ]);
+        let results = vec![
+            result(case("silent", Kind::Places, places), nothing.clone(), None),
+            result(look_alike, nothing, None),
+        ];
+        let board = board(&c, results, false);
+        let silent = board.rows.iter().find(|r| r.case == "silent").unwrap();
+        assert_eq!(silent.misses.len(), 1);
+        assert_eq!(
+            (silent.misses[0].figure.as_str(), silent.misses[0].value),
+            ("precision", None)
+        );
+        let symmetric = board.rows.iter().find(|r| r.case == "symmetric").unwrap();
+        assert!(symmetric.misses.is_empty());
+        assert_eq!(board.check_failures(), ["silent: precision missing (gated)"]);
+        let sum = &board.summary[&Kind::Places].figures["precision"];
+        assert_eq!(
+            (sum.worst, sum.misses.clone()),
+            (None, vec!["silent".to_string()])
+        );
+        assert!(board.markdown().contains("**precision** missing (target ≥ 1)"));
+    }
+
+    /// The project's corpus gates CI's quick board: the quick camera
+    /// cases' profile figures as measured (scoreboard at 766c768) pass,
+    /// and the same with 5 points more bins missed fail.
+    #[test]
+    fn the_corpus_gates_catch_a_profile_regression_of_five_points() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/corpus.toml");
+        let corpus = Corpus::read(&path).unwrap();
+        let measured = [
+            ("room-multi-dark seed 1", 0.04881, 0.006156, 0.009056, 0.9525),
+            ("room-multi seed 1", 0.03395, 0.002409, 0.007269, 0.9512),
+            ("field-pirouette", 0.001527, 0.03346, 0.004964, 0.9935),
+            ("office-multi", 0.01766, 0.008942, 0.009146, 0.9354),
+        ];
+        let results = |worse: f64| {
+            (measured.iter())
+                .map(|&(id, missed, false_range, ate, f1)| {
+                    let figures = [
+                        ("missed", missed + worse),
+                        ("false_range", false_range),
+                        ("wrong_verified", 0.0),
+                        ("max_verified_error_deg", 1.0),
+                        ("ate_aligned_m", ate),
+                        ("f1", f1),
+                    ];
+                    result(camera(id), outcome(&figures, 5.0), None)
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            board(&corpus, results(0.0), false).check_failures(),
+            Vec::<String>::new()
+        );
+        let failures = board(&corpus, results(0.05), false).check_failures();
+        assert!(
+            !failures.is_empty(),
+            "a 5-point profile regression passes the gates"
+        );
+        assert!(failures.iter().all(|f| f.contains("missed")), "{failures:?}");
+    }
+
+    /// A time ratio moves with the time: within the runs' spread it is no
+    /// regression.
+    #[test]
+    fn time_over_cartographer_has_the_timing_noise() {
+        let bag = |t: f64| outcome(&[("time_vs_cartographer", t / 100.0)], t);
+        let input = Input::Bag {
+            name: "b".into(),
+            cartographer_trans_m: 0.02,
+            cartographer_rot_deg: 0.4,
+            cartographer_time_s: 100.0,
+        };
+        let c = corpus(&[]);
+        let row = |this: f64, base: f64| {
+            let r = result(
+                case("b.bag", Kind::Laser, input.clone()),
+                bag(this),
+                Some(bag(base)),
+            );
+            board(&c, vec![r], true).rows[0].regressions.clone()
+        };
+        // 4 % slower is within the 5 % floor of the timing noise ...
+        assert!(row(52.0, 50.0).is_empty());
+        // ... 20 % is not, for the time and its ratio alike.
+        let worse: Vec<String> = row(60.0, 50.0).into_iter().map(|g| g.figure).collect();
+        assert_eq!(worse, ["time_vs_cartographer", "time_s"]);
+    }
+
+    #[test]
+    fn civil_dates_match_the_calendar() {
+        assert_eq!(civil_date(0), (1970, 1, 1));
+        assert_eq!(civil_date(11_016), (2000, 2, 29));
+        assert_eq!(civil_date(20_793), (2026, 12, 6));
+        assert_eq!(civil_date(-1), (1969, 12, 31));
     }
 }

@@ -182,6 +182,7 @@ impl Runner {
                         &mut f,
                         &v,
                         &[
+                            ("answers", "/answers"),
                             ("precision", "/precision"),
                             ("recall_at_1", "/recall_at_1"),
                             ("far_wrong", "/far_wrong"),
@@ -190,8 +191,9 @@ impl Runner {
                         ],
                     );
                     // Precision over no answers, and pose errors over no
-                    // right answers, are not figures.
-                    let answers = v["answers"].as_f64().unwrap_or(0.0);
+                    // right answers, are not figures: left out, they are
+                    // misses where the case must give them.
+                    let answers = f.get("answers").copied().unwrap_or(0.0);
                     let right = answers * f.get("precision").copied().unwrap_or(0.0);
                     if answers == 0.0 {
                         f.remove("precision");
