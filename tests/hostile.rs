@@ -222,25 +222,33 @@ fn killed_writers_leave_the_old_file_or_the_new_one() {
     .unwrap();
     let out = dir.path().join("out.g2o");
     let old = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
+    let command = || {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_pirouette"));
+        c.args([
+            "graph",
+            "optimise",
+            input.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--max-iterations",
+            "1",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null());
+        c
+    };
+    // One run to its end: how long the kills have to land in.
+    let start = std::time::Instant::now();
+    assert!(command().status().unwrap().success());
+    let whole = start.elapsed();
+    assert_eq!(read_g2o(&out).unwrap().graph.poses.len(), poses);
     let (mut old_seen, mut new_seen) = (0, 0);
-    // Kill after delays spread over the run (reading, solving, writing).
-    for k in 0..12u64 {
+    // Kill after delays spread from the start to past the end of a run
+    // (reading, solving, writing, done): 0 to 1.8 times its length.
+    for k in 0..12u32 {
         std::fs::write(&out, old).unwrap();
-        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pirouette"))
-            .args([
-                "graph",
-                "optimise",
-                input.to_str().unwrap(),
-                "--out",
-                out.to_str().unwrap(),
-                "--max-iterations",
-                "1",
-            ])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(40 * k * k));
+        let mut child = command().spawn().unwrap();
+        std::thread::sleep(whole * k / 6);
         let _ = child.kill();
         let _ = child.wait();
         let text = std::fs::read_to_string(&out).unwrap();
@@ -252,7 +260,7 @@ fn killed_writers_leave_the_old_file_or_the_new_one() {
             new_seen += 1;
         }
     }
-    assert_eq!(old_seen + new_seen, 12);
     assert!(old_seen > 0, "no kill landed before the rename");
+    assert!(new_seen > 0, "no run got as far as its rename");
     eprintln!("killed 12 writers: the old file {old_seen} times, a complete new one {new_seen} times");
 }

@@ -506,13 +506,15 @@ fn shared_intel_log_maps_as_measured() {
     let rel = relative_errors(&est, &reference, 1.0);
     let rel_dead = relative_errors(&dead, &reference, 1.0);
     let ate = aligned_ate(&est, &reference);
-    // Today's figures (BENCHMARKS.md) with a margin: 3.6 cm, 0.58° and
-    // 7 cm, against dead reckoning's 12 cm, 5.6° and 24 m.
+    eprintln!("intel: RPE 1 m {rel:?}, ATE {ate} m");
+    // The figures measured at ade64b8 (RPE 3.56 cm and 0.550°, ATE 6.3 cm;
+    // dead reckoning's 12 cm, 5.6° and 24 m) and a margin of a few per
+    // cent for the floating point of other machines.
     assert!(
-        rel.translation_mean_m < 0.045 && rel.rotation_mean_deg < 0.8,
+        rel.translation_mean_m < 0.037 && rel.rotation_mean_deg < 0.58,
         "{rel:?}"
     );
-    assert!(ate < 0.15, "ATE {ate}");
+    assert!(ate < 0.066, "ATE {ate}");
     assert!(rel_dead.translation_mean_m > 2.0 * rel.translation_mean_m);
     assert!(reg.loops.iter().filter(|l| l.kept).count() > 50);
 }
