@@ -2,8 +2,8 @@
 //! shared evaluation data, so that the tests reading it run there and are
 //! ignored (with their reason) elsewhere instead of passing without a check;
 //! and names the commit the build comes from (`PIROUETTE_COMMIT`, with
-//! `-modified` when the checkout differs from it), which `--version` and the
-//! scoreboard show.
+//! `-modified` when the sources in the checkout differ from it), which
+//! `--version` and the scoreboard show.
 use std::process::Command;
 
 fn main() {
@@ -41,8 +41,19 @@ fn main() {
     }
     let commit = match git(&["rev-parse", "--short=7", "HEAD"]) {
         Some(hash) if !hash.is_empty() => {
-            let modified =
-                git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+            // Changes to what the build is made of, not to docs or CI.
+            let modified = git(&[
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                "src",
+                "crates",
+                "Cargo.toml",
+                "Cargo.lock",
+                "build.rs",
+            ])
+            .is_some_and(|s| !s.is_empty());
             if modified {
                 format!("{hash}-modified")
             } else {
