@@ -1,0 +1,197 @@
+#!/usr/bin/env python3
+"""BENCHMARKS.md's scoreboard tables, written from one scoreboard.json.
+
+    benches/scoreboard-tables.py OUT/scoreboard.json              # print them
+    benches/scoreboard-tables.py OUT/scoreboard.json BENCHMARKS.md  # replace them there
+
+`pirouette eval suite --out OUT` writes OUT/scoreboard.json. The tables
+go between the lines `<!-- scoreboard-tables: begin -->` and
+`<!-- scoreboard-tables: end -->` of the Markdown file, which is written
+whole to a temporary file and renamed over the old one. Every figure
+comes from the one run the file records (its commit, processor, day and
+command are the tables' first line), so that the board is regenerated,
+never edited by hand. Standard library only.
+"""
+
+import json
+import os
+import sys
+import tempfile
+
+BEGIN = "<!-- scoreboard-tables: begin -->"
+END = "<!-- scoreboard-tables: end -->"
+
+# Figures shown as percentages.
+PERCENT = {"missed", "false_range", "wrong_unmarked_share"}
+# Names for people.
+NAMES = {
+    "missed": "profile bins missed",
+    "false_range": "free bins given a range",
+    "wrong_verified": "verified turns > 3° off",
+    "ate_aligned_m": "ATE aligned",
+    "f1": "map F1",
+    "precision": "precision",
+    "far_wrong": "far queries answered wrong",
+    "pose_error_max_deg": "largest heading error",
+    "rpe_1m_m": "RPE 1 m",
+    "rpe_1m_vs_odometry": "RPE 1 m over the log's with odometry",
+    "relations_trans_vs_cartographer": "relations, translation over Cartographer's",
+    "relations_rot_vs_cartographer": "relations, rotation over Cartographer's",
+    "relations_unmatched": "relations unmatched",
+    "time_vs_cartographer": "time over Cartographer's published",
+    "chi2_vs_reference": "χ² over the reference",
+    "inlier_chi2_vs_reference": "outliers: χ² of the true edges over the reference",
+    "time_s": "time",
+    "peak_mb": "peak memory",
+}
+
+
+def num(v, figure=""):
+    """A figure with about three significant digits, in its unit."""
+    if v is None:
+        return "missing"
+    if figure in PERCENT:
+        return f"{100 * v:.2f} %"
+    if figure == "time_s":
+        if v < 1:
+            return f"{1000 * v:.0f} ms"
+        return f"{v:.1f} s" if v < 600 else f"{v / 60:.1f} min"
+    if figure == "peak_mb":
+        return f"{v:.0f} MB"
+    if figure.endswith("_m") and figure != "relations_unmatched":
+        return f"{100 * v:.2f} cm" if abs(v) < 1 else f"{v:.2f} m"
+    if figure.endswith("_deg"):
+        return f"{v:.2f}°"
+    if v == 0 or v != v:
+        return f"{v:g}"
+    if abs(v) >= 100:
+        return f"{v:.0f}"
+    return f"{v:.3g}" if abs(v) >= 1 else f"{v:.3f}"
+
+
+def minutes(s):
+    m, s = divmod(round(s), 60)
+    return f"{m} min {s} s" if m else f"{s} s"
+
+
+def summary(board):
+    out = [
+        "| kind | cases | figure | target (gate) | worst (case) | median | short |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for kind, s in board["summary"].items():
+        first = True
+        # Targeted figures first, then time and memory.
+        figures = sorted(s["figures"].items(), key=lambda kv: kv[0] in ("time_s", "peak_mb"))
+        for name, f in figures:
+            gate = f.get("gate")
+            target = f["target"]
+            if gate:
+                target += " (gated)" if gate == target else f" (gate {gate})"
+            worst = num(f["worst"], name)
+            if f["worst_case"]:
+                worst += f" ({f['worst_case']})"
+            cells = [kind if first else "", str(s["cases"]) if first else ""]
+            cells += [NAMES.get(name, name), target, worst, num(f["median"], name)]
+            cells.append(str(len(f["misses"])) if f["target"] != "-" else "")
+            out.append("| " + " | ".join(cells) + " |")
+            first = False
+        if s["failed"]:
+            out.append(f"| {kind} | | failed to run | | {'; '.join(s['failed'])} | | |")
+    return out
+
+
+def cases(board, title, pick, columns):
+    """A table of the rows `pick` keeps, one column per (figure, heading)."""
+    rows = [r for r in board["rows"] if pick(r["case"])]
+    if not rows:
+        return []
+    out = ["", f"{title}:", "", "| case | " + " | ".join(h for _, h in columns) + " | short of target |"]
+    out.append("| --- |" + " --- |" * (len(columns) + 1))
+    for r in sorted(rows, key=lambda r: r["case"]):
+        cells = [r["case"]]
+        if r.get("error"):
+            cells += [""] * len(columns) + [f"failed: {r['error']}"]
+        else:
+            missed = {m["figure"] for m in r["misses"]}
+            cells += [num(r["figures"][f], f) if f in r["figures"]
+                      else "missing" if f in missed else "-" for f, _ in columns]
+            cells.append(", ".join(m["figure"] for m in r["misses"]) or "-")
+        out.append("| " + " | ".join(cells) + " |")
+    return out
+
+
+def tables(board):
+    p = board["provenance"]
+    runs = board["rows"]
+    kinds = ", ".join(f"{s['cases']} {k}" for k, s in board["summary"].items())
+    out = [
+        BEGIN,
+        f"Commit `{p['commit']}`, {p['cpu']} ({p['cores']} cores), {p['date']}: "
+        f"{len(runs)} cases ({kinds}), {board['jobs']} at once, "
+        f"{minutes(p['wall_s'])}; time is the least of {board['repeats']} run(s). "
+        "Written by `benches/scoreboard-tables.py` from that run's scoreboard.json.",
+        "",
+        "```sh",
+        f"PIROUETTE_SHARED=$PWD/../shared {p['command']}",
+        f"benches/scoreboard-tables.py OUT/scoreboard.json BENCHMARKS.md",
+        "```",
+        "",
+    ]
+    out += summary(board)
+    shared_camera = {"field-multi", "field-multi-b", "field-open", "field-pirouette",
+                     "office-multi", "office-multi-b"}
+    out += cases(board, "The shared camera sets", lambda c: c in shared_camera, [
+        ("missed", "bins missed"), ("false_range", "free bins given a range"),
+        ("wrong_verified", "turns > 3° off"), ("ate_aligned_m", "ATE aligned"),
+        ("f1", "F1"), ("time_s", "time"), ("peak_mb", "peak memory")])
+    out += cases(board, "Laser logs as recorded (against each log's recorded trajectory)",
+                 lambda c: c.endswith(":as-recorded"), [
+        ("rpe_1m_m", "RPE 1 m"), ("rpe_1m_deg", "RPE 1 m, rotation"), ("ate_m", "ATE"),
+        ("wrong_unmarked_share", "steps wrong, unmarked"), ("time_s", "time"),
+        ("peak_mb", "peak memory")])
+    out += cases(board, "The benchmark's bags (relations; Cartographer's figures as published, "
+                 "its time on other hardware)", lambda c: c.endswith(".bag"), [
+        ("relations_trans_m", "translation"), ("relations_rot_deg", "rotation"),
+        ("relations_trans_vs_cartographer", "over Cartographer's"),
+        ("relations_rot_vs_cartographer", "over Cartographer's, rotation"),
+        ("relations_unmatched", "unmatched"), ("time_s", "time"),
+        ("time_vs_cartographer", "over Cartographer's time"), ("peak_mb", "peak memory")])
+    out += cases(board, "Pose graphs", lambda c: ":" in c and not c.split(":")[1].startswith(
+        ("as-recorded", "no-odometry", "every", "noisy")), [
+        ("chi2_vs_reference", "χ² over the reference"),
+        ("inlier_chi2_vs_reference", "true edges' χ² over the reference"),
+        ("iterations", "iterations"), ("time_s", "time")])
+    failures = [f"{r['case']}: {g}" for r in runs for g in r.get("gate_failures", [])]
+    out += ["", f"Gated targets failed (`eval suite --check` fails on them): "
+            f"{len(failures)}" + (f": {'; '.join(failures)}." if failures else ".")]
+    out.append(END)
+    return "\n".join(out) + "\n"
+
+
+def main(argv):
+    if len(argv) not in (2, 3):
+        sys.exit(__doc__.strip().split("\n\n")[1])
+    try:
+        with open(argv[1], encoding="utf-8") as f:
+            board = json.load(f)
+        text = tables(board)
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f"{argv[1]}: not a scoreboard.json of this build ({type(e).__name__}: {e})")
+    if len(argv) == 2:
+        sys.stdout.write(text)
+        return
+    md = argv[2]
+    with open(md, encoding="utf-8") as f:
+        old = f.read()
+    if old.count(BEGIN) != 1 or old.count(END) != 1 or old.index(BEGIN) > old.index(END):
+        sys.exit(f"{md}: needs one `{BEGIN}` line and one `{END}` line after it")
+    new = old[: old.index(BEGIN)] + text + old[old.index(END) + len(END) + 1:]
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(md)), prefix=".benchmarks-")
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(new)
+    os.replace(tmp, md)
+
+
+if __name__ == "__main__":
+    main(sys.argv)
