@@ -1,6 +1,7 @@
 //! Real camera frames (`../shared/real/`) read through the project's rig.
 
 use crate::util::shared;
+use pirouette::eval::sync::{find_clock, put_truth_on_frames};
 use pirouette::io::Dataset;
 use std::path::Path;
 
@@ -29,15 +30,25 @@ fn tum_rig(dir: &Path) -> std::path::PathBuf {
     dir.join("rig.json")
 }
 
-/// The rig opens the 1225 frames, chooses every fifth, reads the lens, and
-/// turns the camera's motion capture into robot headings whose sum over
-/// the run is the 466° the set's description gives.
+/// The rig opens the 1225 frames, chooses every fifth, reads the lens,
+/// finds the motion capture's clock from the images, and turns the
+/// camera's motion capture into robot headings whose sum over the run is
+/// the 466° the set's description gives.
 #[test]
 #[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
 fn the_tum_frames_open_as_a_dataset_with_their_lens_and_turn() {
     let dir = tempfile::tempdir().unwrap();
-    let ds = Dataset::open(&tum_rig(dir.path())).unwrap();
+    let mut ds = Dataset::open(&tum_rig(dir.path())).unwrap();
     assert_eq!(ds.manifest.frames.len(), 245);
+    // The stamps are made up: no frame has truth until the clock is found.
+    assert!(ds.manifest.frames.iter().all(|f| f.truth.is_none()));
+    let clock = put_truth_on_frames(&mut ds).unwrap().expect("a clock to find");
+    eprintln!("{clock:?}");
+    // The set's README: the even spacing is off by about half a second.
+    assert!(
+        clock.offset_s.abs() < 1.0 && (clock.rate - 1.0).abs() < 0.02,
+        "{clock:?}"
+    );
     // No odometry: no motion is taken for a command.
     assert!(ds.manifest.frames.iter().all(|f| f.motion.is_none()));
     let lens = ds
@@ -63,4 +74,43 @@ fn the_tum_frames_open_as_a_dataset_with_their_lens_and_turn() {
         .map(|w| (w[1] - w[0] + 540.0).rem_euclid(360.0) - 180.0)
         .sum();
     assert!((440.0..490.0).contains(&turned.abs()), "turned {turned}°");
+}
+
+/// The clock found from the images follows the truth: with the motion
+/// capture's times moved by 0.6 s, the offset found moves by 0.6 s.
+#[test]
+#[cfg_attr(not(shared_data), ignore = "needs the shared data: set PIROUETTE_SHARED")]
+fn the_truth_clock_found_from_the_images_follows_a_shifted_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = tum_rig(dir.path());
+    let clock = |ds: &Dataset| {
+        let camera = ds.manifest.camera.pinhole_model().unwrap();
+        find_clock(ds.truth_track.as_ref().unwrap(), &camera).unwrap()
+    };
+    let before = clock(&Dataset::open(&rig).unwrap());
+    // The same truth, every stamp 0.6 s later.
+    let truth = shared().join("real/tum-fr2-pioneer-360/groundtruth.txt");
+    let shifted: String = std::fs::read_to_string(&truth)
+        .unwrap()
+        .lines()
+        .map(|l| match l.split_once(' ') {
+            Some((t, rest)) if !l.starts_with('#') => {
+                format!("{:.4} {rest}\n", t.parse::<f64>().unwrap() + 0.6)
+            }
+            _ => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(dir.path().join("shifted.txt"), shifted).unwrap();
+    let mut r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&rig).unwrap()).unwrap();
+    r["truth"] = dir.path().join("shifted.txt").display().to_string().into();
+    std::fs::write(&rig, r.to_string()).unwrap();
+    let after = clock(&Dataset::open(&rig).unwrap());
+    eprintln!("{before:?}\n{after:?}");
+    assert!(
+        ((after.offset_s - before.offset_s) - 0.6).abs() < 0.03,
+        "{before:?} {after:?}"
+    );
+    assert!((after.rate - before.rate).abs() < 0.001, "{before:?} {after:?}");
+    // Most pairs agree with the truth to within a degree or so.
+    assert!(before.residual_median_deg < 1.0, "{before:?}");
 }

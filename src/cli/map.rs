@@ -357,23 +357,38 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
     if !(a.tolerance_cells.is_finite() && a.tolerance_cells > 0.0) {
         bail!("--tolerance-cells {} must be positive", a.tolerance_cells);
     }
-    let ds = open_camera_dataset(&a.dataset)?;
+    let mut ds = open_camera_dataset(&a.dataset)?;
+    let clock = pirouette::eval::sync::put_truth_on_frames(&mut ds)?;
     truth_in_map_frame(&ds)?;
     // Only the profiles are needed: the map and poses are read from DIR.
     let (swept, config) = sweep_dataset(&ds, &a.options)?;
-    let r = evaluate(&ds, &swept, &config, &a.dir, a.tolerance_cells)?;
+    let mut r = evaluate(&ds, &swept, &config, &a.dir, a.tolerance_cells)?;
+    r.clock = clock;
     if a.json {
         outln!("{}", serde_json::to_string(&r)?)?;
         return Ok(());
     }
     outln!("dataset {} ({} frames)", r.dataset, r.trajectory.poses)?;
+    if let Some(c) = &r.clock {
+        outln!(
+            "truth's clock from the images: {:+.3} s, rate {:.5} ({} pairs of frames, median disagreement {:.2}°)",
+            c.offset_s,
+            c.rate,
+            c.pairs,
+            c.residual_median_deg
+        )?;
+    }
     let show_trajectory = |name: &str, t: &TrajectoryScores| {
         outln!(
-            "{name:<12} ATE {:.2} cm aligned, {:.2} cm anchored (max {:.2} cm), heading RMSE {:.2}°",
+            "{name:<12} ATE {:.2} cm aligned, {:.2} cm anchored (max {:.2} cm), heading RMSE {:.2}°; turn error median {:.2}°, p95 {:.2}°{}",
             t.ate_aligned_m * 100.0,
             t.ate_anchored_m * 100.0,
             t.max_anchored_m * 100.0,
-            t.heading_rmse_deg
+            t.heading_rmse_deg,
+            t.turn_error_median_deg,
+            t.turn_error_p95_deg,
+            t.heading_after_full_turn_deg
+                .map_or(String::new(), |e| format!("; heading off by {e:.2}° after a full turn"))
         )
     };
     show_trajectory("trajectory", &r.trajectory)?;

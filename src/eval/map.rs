@@ -40,6 +40,11 @@ pub struct MapReport {
     /// trajectory's truth). Its fields stand beside the others in JSON.
     #[serde(flatten)]
     pub scene: Option<SceneScores>,
+    /// The truth's clock as found from the images, where the dataset's
+    /// truth keeps another clock than its stamps
+    /// ([`crate::eval::sync`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clock: Option<crate::eval::sync::Clock>,
 }
 
 /// A map against its scene ([`MapReport::scene`]).
@@ -200,6 +205,7 @@ pub fn evaluate_map_dir(
             ),
         },
         scene,
+        clock: None,
     })
 }
 
@@ -318,6 +324,16 @@ pub struct TrajectoryScores {
     pub max_anchored_m: f64,
     /// RMSE of anchored headings, degrees.
     pub heading_rmse_deg: f64,
+    /// The turn between consecutive poses against the true turn: median
+    /// and 95th percentile of the absolute error, degrees (0 with fewer
+    /// than two poses).
+    pub turn_error_median_deg: f64,
+    /// See `turn_error_median_deg`.
+    pub turn_error_p95_deg: f64,
+    /// Where the true heading has turned through a full 360° (summed
+    /// step by step): the error of the heading turned by then, degrees;
+    /// `None` when the truth never turns that far.
+    pub heading_after_full_turn_deg: Option<f64>,
 }
 
 /// The rigid transform `T` minimising `Σ |T·a_i − b_i|²` (2D, no scale):
@@ -393,12 +409,33 @@ pub fn trajectory_scores(estimated: &[Pose2], truth: &[Pose2]) -> TrajectoryScor
         .zip(truth)
         .map(|(a, b)| wrap_angle(a.theta - b.theta).powi(2))
         .sum();
+    let step = |p: &[Pose2], k: usize| wrap_angle(p[k + 1].theta - p[k].theta);
+    let mut turn_errors: Vec<f64> = (0..estimated.len().saturating_sub(1))
+        .map(|k| wrap_angle(step(estimated, k) - step(truth, k)).abs().to_degrees())
+        .collect();
+    turn_errors.sort_by(f64::total_cmp);
+    let quantile = |q: f64| {
+        (!turn_errors.is_empty()).then(|| turn_errors[((turn_errors.len() - 1) as f64 * q).round() as usize])
+    };
+    let (mut turned, mut turned_est) = (0.0f64, 0.0f64);
+    let mut heading_after_full_turn_deg = None;
+    for k in 0..estimated.len().saturating_sub(1) {
+        turned += step(truth, k);
+        turned_est += step(estimated, k);
+        if turned.abs() >= std::f64::consts::TAU {
+            heading_after_full_turn_deg = Some((turned_est - turned).abs().to_degrees());
+            break;
+        }
+    }
     TrajectoryScores {
         poses: estimated.len(),
         ate_aligned_m: (aligned_sq / n).sqrt(),
         ate_anchored_m: (anchored.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
         max_anchored_m: anchored.iter().copied().fold(0.0, f64::max),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
+        turn_error_median_deg: quantile(0.5).unwrap_or(0.0),
+        turn_error_p95_deg: quantile(0.95).unwrap_or(0.0),
+        heading_after_full_turn_deg,
     }
 }
 
@@ -572,6 +609,35 @@ mod tests {
         assert!((s.ate_anchored_m - (0.02f64 * 0.02 / 2.0).sqrt()).abs() < 1e-12);
         assert!((s.max_anchored_m - 0.02).abs() < 1e-12);
         assert!((s.heading_rmse_deg - (0.01f64.powi(2) / 2.0).sqrt().to_degrees()).abs() < 1e-9);
+    }
+
+    /// 40 steps of 10° (a turn and a half): every estimated step 0.2°
+    /// short but the fifth, 2° long.
+    #[test]
+    fn turn_errors_and_the_heading_after_a_full_turn() {
+        let deg = f64::to_radians;
+        let truth: Vec<Pose2> = (0..41)
+            .map(|k| Pose2::new(0.1 * k as f64, 0.0, deg(10.0 * k as f64)))
+            .collect();
+        let mut est = vec![Pose2::IDENTITY];
+        for k in 0..40 {
+            let step = if k == 4 { 12.0 } else { 9.8 };
+            let last = est[k];
+            est.push(Pose2::new(0.1 * (k + 1) as f64, 0.0, last.theta + deg(step)));
+        }
+        let s = trajectory_scores(&est, &truth);
+        assert!((s.turn_error_median_deg - 0.2).abs() < 1e-9, "{s:?}");
+        // The 95th percentile of 40 errors: the 38th smallest (0.2°); the
+        // one 2° error is the largest.
+        assert!((s.turn_error_p95_deg - 0.2).abs() < 1e-9, "{s:?}");
+        // 36 steps make the full turn: 35 short by 0.2°, one long by 2°.
+        let after = s.heading_after_full_turn_deg.unwrap();
+        assert!((after - (35.0 * 0.2 - 2.0)).abs() < 1e-9, "{after}");
+        // Half a turn is never a full one.
+        assert_eq!(
+            trajectory_scores(&est[..19], &truth[..19]).heading_after_full_turn_deg,
+            None
+        );
     }
 
     fn wall_world() -> World {

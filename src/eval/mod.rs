@@ -6,6 +6,7 @@ pub mod laser;
 pub mod map;
 pub mod relations;
 pub mod suite;
+pub mod sync;
 
 use pirouette_camera::CameraModel;
 use pirouette_geom::Pose2;

@@ -504,6 +504,9 @@ pub struct Dataset {
     pub bag_frames: Option<std::sync::Arc<crate::bag::camera::BagFrames>>,
     /// Damage read past (a bag cut short, chunks skipped), one line each.
     pub warnings: Vec<String>,
+    /// The truth of an image folder whose clock is to be found from the
+    /// images (`truth_clock: from_images`); its frames carry no truth.
+    pub truth_track: Option<std::sync::Arc<crate::TruthTrack>>,
 }
 
 impl Dataset {
@@ -566,6 +569,7 @@ impl Dataset {
                 stamps: folder.stamps,
                 bag_frames: folder.bag_frames.map(std::sync::Arc::new),
                 warnings: folder.warnings,
+                truth_track: folder.truth_track.map(std::sync::Arc::new),
             };
             ds.check(&rig)?;
             return Ok(ds);
@@ -614,6 +618,7 @@ impl Dataset {
             stamps: Vec::new(),
             bag_frames: None,
             warnings: Vec::new(),
+            truth_track: None,
         };
         ds.check(&path)?;
         Ok(ds)

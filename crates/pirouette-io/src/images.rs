@@ -78,6 +78,11 @@ pub struct Rig {
     /// What the truth file's poses are of.
     #[serde(default)]
     pub truth_frame: TruthFrame,
+    /// Whether the truth keeps the stamps' clock, or its clock against
+    /// the frames' must be found from the images (stamps made up, or of
+    /// another clock).
+    #[serde(default)]
+    pub truth_clock: TruthClock,
     /// How frames are chosen from the stream.
     #[serde(default)]
     pub select: Selection,
@@ -95,6 +100,41 @@ pub enum TruthFrame {
     /// direction on the floor, the robot centre lies the mount's offset
     /// behind the camera.
     CameraOptical,
+}
+
+/// The truth file's clock against the frames' stamps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TruthClock {
+    /// The stamps and the truth share one clock: a frame's truth is the
+    /// truth at its stamp.
+    #[default]
+    Stamps,
+    /// Their offset and rate are unknown: the frames carry no truth, and
+    /// evaluation finds the clock by matching the images' turning to the
+    /// truth's ([`TruthTrack`]).
+    FromImages,
+}
+
+/// A truth to be put on the frames' clock: the truth's planar poses, and
+/// every frame of the stream (the chosen ones and the others between,
+/// whose images tell the turning).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruthTrack {
+    /// The truth's planar poses by its own time, seconds.
+    pub poses: Vec<(f64, Pose2)>,
+    /// Every frame of the stream: its stamp and image file.
+    pub frames: Vec<(f64, PathBuf)>,
+    /// The chosen frames' places in `frames`, in the dataset's order.
+    pub chosen: Vec<usize>,
+}
+
+impl TruthTrack {
+    /// The truth's pose at its time `t`, between the poses about it;
+    /// `None` outside their span.
+    pub fn at(&self, t: f64) -> Option<Pose2> {
+        planar_at(&self.poses, t)
+    }
 }
 
 /// How frames are chosen from the stream.
@@ -289,6 +329,9 @@ pub struct ImageFolder {
     pub bag_frames: Option<crate::bag::camera::BagFrames>,
     /// Damage read past in a bag (cut short, chunks skipped).
     pub warnings: Vec<String>,
+    /// The truth, where its clock is to be found from the images
+    /// ([`TruthClock::FromImages`]); the frames then carry none.
+    pub truth_track: Option<TruthTrack>,
 }
 
 fn relative_to(base: &Path, p: &str) -> PathBuf {
@@ -463,6 +506,19 @@ impl ImageFolder {
                 _ => None,
             });
         let truth = read_truth(rig_path, &rig)?;
+        let clock_from_images = rig.truth_clock == TruthClock::FromImages;
+        if clock_from_images && truth.is_none() {
+            return Err(IoError::invalid(
+                rig_path,
+                "`truth_clock: from_images` needs a `truth` file",
+            ));
+        }
+        if clock_from_images && !matches!(source, Source::Files(_)) {
+            return Err(IoError::invalid(
+                rig_path,
+                "`truth_clock: from_images` reads every frame's image: give the frames as a stamps file",
+            ));
+        }
         // The chosen frames and their motions.
         let mut chosen: Vec<(usize, Option<Motion>)> = Vec::new();
         match &odometry {
@@ -522,8 +578,8 @@ impl ImageFolder {
                 image: stamped[k].path.clone(),
                 sweep,
                 motion,
-                truth: truth
-                    .as_ref()
+                truth: (truth.as_ref())
+                    .filter(|_| !clock_from_images)
                     .and_then(|t| planar_at(t, stamped[k].t))
                     .map(PoseSpec::from),
             })
@@ -556,6 +612,14 @@ impl ImageFolder {
             frames,
         };
         let stamps = chosen.iter().map(|&(k, _)| stamped[k].t).collect();
+        let truth_track = match (&source, truth) {
+            (Source::Files(f), Some(poses)) if clock_from_images => Some(TruthTrack {
+                poses,
+                frames: (stamped.iter()).map(|s| (s.t, f.root.join(&s.path))).collect(),
+                chosen: chosen.iter().map(|&(k, _)| k).collect(),
+            }),
+            _ => None,
+        };
         let (root, bag_frames, warnings) = match source {
             Source::Files(f) => (f.root, None, Vec::new()),
             Source::Bag(b) => {
@@ -576,6 +640,7 @@ impl ImageFolder {
             stamps,
             bag_frames,
             warnings,
+            truth_track,
         })
     }
 }

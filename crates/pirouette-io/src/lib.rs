@@ -55,7 +55,8 @@ pub use dataset::{
 pub use error::IoError;
 pub use g2o::{parse_g2o, read_g2o, write_g2o, write_pose_graph, G2oGraph, MAX_ELEMENTS as G2O_MAX_ELEMENTS};
 pub use images::{
-    read_stamps, read_truth, ImageFolder, Rig, Selection, Stamped, TruthFrame, RIG_FILE, RIG_FORMAT,
+    read_stamps, read_truth, ImageFolder, Rig, Selection, Stamped, TruthClock, TruthFrame, TruthTrack,
+    RIG_FILE, RIG_FORMAT,
 };
 pub use map_dir::{names as map_names, read_poses, read_ros_map, write_map_dir, write_tum, PoseRecord};
 pub use places::{
