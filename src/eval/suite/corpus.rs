@@ -19,6 +19,8 @@ pub const MAX_CASES: usize = 10_000;
 pub enum Kind {
     /// Camera datasets: profiles, turns, maps.
     Camera,
+    /// Real camera recordings with motion capture: turns and trajectory.
+    Real,
     /// Place index and queries.
     Places,
     /// Laser logs.
@@ -29,12 +31,13 @@ pub enum Kind {
 
 impl Kind {
     /// Every kind, in the order the scoreboard shows them.
-    pub const ALL: [Kind; 4] = [Kind::Camera, Kind::Places, Kind::Laser, Kind::Graph];
+    pub const ALL: [Kind; 5] = [Kind::Camera, Kind::Real, Kind::Places, Kind::Laser, Kind::Graph];
 
     /// The kind's name in the corpus and the scoreboard.
     pub fn name(self) -> &'static str {
         match self {
             Kind::Camera => "camera",
+            Kind::Real => "real",
             Kind::Places => "places",
             Kind::Laser => "laser",
             Kind::Graph => "graph",
@@ -150,6 +153,15 @@ const CAMERA_FIGURES: &[&str] = &[
     "ate_aligned_m",
     "f1",
 ];
+/// A real recording's: its trajectory against the motion capture, on the
+/// clock found from the images.
+const REAL_FIGURES: &[&str] = &[
+    "ate_aligned_m",
+    "heading_rmse_deg",
+    "turn_error_median_deg",
+    "turn_error_p95_deg",
+    "heading_after_full_turn_deg",
+];
 /// A places case's figures; the first three are given whatever the
 /// answers (the rest need an answer, or a right one).
 const PLACES_FIGURES: &[&str] = &[
@@ -187,6 +199,7 @@ impl Kind {
     pub fn figures(self) -> Vec<&'static str> {
         match self {
             Kind::Camera => CAMERA_FIGURES.to_vec(),
+            Kind::Real => REAL_FIGURES.to_vec(),
             Kind::Places => PLACES_FIGURES.to_vec(),
             Kind::Laser => [LASER_FIGURES, BAG_FIGURES].concat(),
             Kind::Graph => [GRAPH_FIGURES, &OUTLIER_GRAPH_FIGURES[2..]].concat(),
@@ -289,6 +302,17 @@ impl GraphVariant {
 pub enum Input {
     /// A camera dataset.
     Camera(Source),
+    /// A real recording through its rig (beside the corpus), its frame
+    /// times from the shared data made into the rig's stamps file.
+    Real {
+        /// The rig file, relative to the corpus's folder.
+        rig: String,
+        /// `$PIROUETTE_SHARED/...`: `index stamp` per line; frame `index`
+        /// is `frames/index.jpg` beside it.
+        frame_times: String,
+        /// Every `every`-th frame is chosen.
+        every: usize,
+    },
     /// An index built from one dataset, queried with another.
     Places {
         /// Indexed.
@@ -352,6 +376,7 @@ impl Case {
     pub fn required(&self) -> &'static [&'static str] {
         match &self.input {
             Input::Camera(_) => CAMERA_FIGURES,
+            Input::Real { .. } => REAL_FIGURES,
             Input::Places { .. } if self.look_alike => &PLACES_FIGURES[..3],
             Input::Places { .. } => PLACES_FIGURES,
             Input::Laser {
@@ -374,7 +399,7 @@ impl Case {
         match &self.input {
             Input::Camera(s) => shared(s),
             Input::Places { index, query } => shared(index) || shared(query),
-            Input::Laser { .. } | Input::Bag { .. } | Input::Graph { .. } => true,
+            Input::Real { .. } | Input::Laser { .. } | Input::Bag { .. } | Input::Graph { .. } => true,
         }
     }
 }
@@ -398,6 +423,8 @@ struct CorpusFile {
     #[serde(default)]
     camera: Vec<CameraGroup>,
     #[serde(default)]
+    real: Vec<RealGroup>,
+    #[serde(default)]
     places: Vec<PlacesGroup>,
     #[serde(default)]
     laser: Vec<LaserGroup>,
@@ -419,6 +446,43 @@ struct CameraGroup {
     /// Shared names, or seeds.
     #[serde(default)]
     quick: Vec<toml::Value>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RealGroup {
+    rig: String,
+    frame_times: String,
+    /// One case per frame choice: every N-th frame.
+    every: Vec<usize>,
+    #[serde(default)]
+    quick: Vec<usize>,
+}
+
+impl RealGroup {
+    fn expand(&self, cases: &mut Vec<Case>) -> Result<()> {
+        let name = Path::new(&self.rig)
+            .parent()
+            .and_then(|p| p.file_name())
+            .map_or(self.rig.clone(), |n| n.to_string_lossy().into_owned());
+        for &every in &self.every {
+            if !(1..=1000).contains(&every) {
+                bail!("real {}: every {every} must be within 1-1000", self.rig);
+            }
+            cases.push(Case {
+                id: format!("{name} every {every}"),
+                kind: Kind::Real,
+                quick: self.quick.contains(&every),
+                look_alike: false,
+                input: Input::Real {
+                    rig: self.rig.clone(),
+                    frame_times: self.frame_times.clone(),
+                    every,
+                },
+            });
+        }
+        Ok(())
+    }
 }
 
 #[derive(Deserialize)]
@@ -570,6 +634,9 @@ impl Corpus {
         let mut cases = Vec::new();
         let expand = |cases: &mut Vec<Case>| -> Result<()> {
             for g in &file.camera {
+                g.expand(cases)?;
+            }
+            for g in &file.real {
                 g.expand(cases)?;
             }
             for g in &file.places {

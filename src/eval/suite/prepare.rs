@@ -41,6 +41,56 @@ impl Places {
         Ok(p)
     }
 
+    /// A real recording's rig, made here on first use: the rig beside the
+    /// corpus with every path made absolute, the shared frame times
+    /// written as its stamps file, every `every`-th frame chosen.
+    pub fn real_rig(&self, rig: &str, frame_times: &str, every: usize) -> Result<PathBuf> {
+        let src = self.corpus_dir.join(rig);
+        let times = self.shared(frame_times)?;
+        let set = times.parent().unwrap_or(Path::new(".")).to_owned();
+        let name = slug(&format!("{}-every-{every}", rig.trim_end_matches(".json")));
+        let dir = self.data.join("real").join(name);
+        let out = dir.join("rig.json");
+        let _making = self.making.lock().unwrap_or_else(|e| e.into_inner());
+        if out.is_file() {
+            return Ok(out);
+        }
+        let text = std::fs::read_to_string(&src).with_context(|| format!("cannot read {}", src.display()))?;
+        let mut r: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("{}: bad JSON", src.display()))?;
+        let src_dir = src.parent().unwrap_or(Path::new("."));
+        let truth_name = (r["truth"].as_str())
+            .and_then(|t| Path::new(t).file_name())
+            .with_context(|| format!("{}: no truth file named", src.display()))?
+            .to_owned();
+        let calibration = (r["calibration"].as_str())
+            .with_context(|| format!("{}: no calibration named", src.display()))?;
+        r["calibration"] = src_dir.join(calibration).display().to_string().into();
+        r["images"] = set.display().to_string().into();
+        r["truth"] = set.join(truth_name).display().to_string().into();
+        r["stamps"] = dir.join("stamps.txt").display().to_string().into();
+        r["select"] = serde_json::json!({ "every": every });
+        // `index stamp` lines become `stamp frames/index.jpg`.
+        let mut stamps = String::new();
+        let lines =
+            std::fs::read_to_string(&times).with_context(|| format!("cannot read {}", times.display()))?;
+        for (n, line) in lines.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let mut f = line.split_whitespace();
+            let (Some(index), Some(t)) = (f.next(), f.next()) else {
+                bail!("{}:{}: expected `index stamp`", times.display(), n + 1);
+            };
+            stamps.push_str(&format!("{t} frames/{index}.jpg\n"));
+        }
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        pirouette_io::atomic_write(&dir.join("stamps.txt"), stamps.as_bytes())?;
+        pirouette_io::atomic_write(&out, r.to_string().as_bytes())?;
+        Ok(out)
+    }
+
     /// A camera dataset's folder, rendered here on first use.
     pub fn dataset(&self, source: &Source) -> Result<PathBuf> {
         match source {

@@ -26,6 +26,10 @@ const FIGURES: &[FigureInfo] = &[
     fig("wrong_verified", true, 0.0),
     fig("max_verified_error_deg", true, 0.05),
     fig("ate_aligned_m", true, 0.001),
+    fig("heading_rmse_deg", true, 0.05),
+    fig("turn_error_median_deg", true, 0.02),
+    fig("turn_error_p95_deg", true, 0.05),
+    fig("heading_after_full_turn_deg", true, 0.05),
     fig("f1", false, 0.005),
     fig("precision", false, 0.0),
     fig("recall_at_1", false, 0.0),
@@ -68,7 +72,7 @@ fn info(name: &str) -> Option<&'static FigureInfo> {
 /// The figure a kind's cases are ordered by, worst first, after misses.
 fn headline(kind: Kind) -> &'static str {
     match kind {
-        Kind::Camera => "ate_aligned_m",
+        Kind::Camera | Kind::Real => "ate_aligned_m",
         Kind::Places => "pose_error_max_deg",
         Kind::Laser => "rpe_1m_m",
         Kind::Graph => "chi2_vs_reference",

@@ -148,6 +148,47 @@ impl Runner {
                     );
                 }
             }
+            Input::Real {
+                rig,
+                frame_times,
+                every,
+            } => {
+                let rig = self.places.real_rig(rig, frame_times, *every)?;
+                let map = work.join("map");
+                add(self
+                    .timed(
+                        work,
+                        bin,
+                        &args(["map".as_ref(), rig.as_os_str(), "--out".as_ref(), map.as_os_str()]),
+                    )?
+                    .0);
+                if figures {
+                    let eval = json(&self.plain(
+                        &self.this,
+                        &args([
+                            "eval".as_ref(),
+                            "map".as_ref(),
+                            rig.as_os_str(),
+                            map.as_os_str(),
+                            "--json".as_ref(),
+                        ]),
+                    )?)?;
+                    take(
+                        &mut f,
+                        &eval,
+                        &[
+                            ("ate_aligned_m", "/trajectory/ate_aligned_m"),
+                            ("heading_rmse_deg", "/trajectory/heading_rmse_deg"),
+                            ("turn_error_median_deg", "/trajectory/turn_error_median_deg"),
+                            ("turn_error_p95_deg", "/trajectory/turn_error_p95_deg"),
+                            (
+                                "heading_after_full_turn_deg",
+                                "/trajectory/heading_after_full_turn_deg",
+                            ),
+                        ],
+                    );
+                }
+            }
             Input::Places { index, query } => {
                 let (index, query) = (self.places.dataset(index)?, self.places.dataset(query)?);
                 let idx = work.join("index.places");
