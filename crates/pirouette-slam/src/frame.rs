@@ -10,6 +10,12 @@ use pirouette_io::{Dataset, LaserScan, Motion};
 use pirouette_profile::matching::MatchView;
 use pirouette_profile::sweep::Sweep;
 use pirouette_profile::Rop;
+use pirouette_vision::compass::{profile_turn, BearingProfile, MIN_CORRELATION};
+
+/// The largest turn the visual compass looks for between frames of
+/// unknown motion, degrees: about half a 60° camera's view, beyond which
+/// too little of the two views is shared.
+pub const COMPASS_MAX_TURN_DEG: f64 = 30.0;
 
 /// How the robot got from the previous frame to this one.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,6 +25,10 @@ pub enum Step {
     Commanded(Motion),
     /// A measured relative pose (raw odometry), in the previous frame.
     Odometry(Pose2),
+    /// No motion given, and this turn (radians, left positive) seen by
+    /// the visual compass ([`pirouette_vision::compass`]) since the
+    /// previous frame; the shift is unknown.
+    SeenTurn(f64),
 }
 
 /// One observation: its profiles, each for one use, and the motion since
@@ -64,28 +74,46 @@ pub struct FrameProfiles {
     /// [`MatchView::cue_m`](pirouette_profile::matching::MatchView::cue_m));
     /// empty where they do not.
     pub cues: Vec<Vec<f32>>,
+    /// Each frame's bearing profile for the visual compass, where some
+    /// frame's motion is unknown (none where every motion is given, or
+    /// the camera has no pinhole model).
+    pub compass: Vec<Option<BearingProfile>>,
 }
 
 /// The frames of a camera dataset, from its profiles: one of each kind per
 /// manifest frame, in capture order (see
 /// [`SweepProfiles`](crate::pipeline::SweepProfiles)).
+/// A frame whose motion is unknown takes the turn the visual compass
+/// sees from the previous frame (within [`COMPASS_MAX_TURN_DEG`], the
+/// profiles correlating at least
+/// [`MIN_CORRELATION`](pirouette_vision::compass::MIN_CORRELATION)).
 pub fn camera_frames(ds: &Dataset, profiles: FrameProfiles) -> Vec<Frame> {
     let FrameProfiles {
         rops,
         compared,
         matched,
         cues,
+        compass,
     } = profiles;
+    let seen_turn = |k: usize| -> Option<Step> {
+        let (a, b) = (
+            compass.get(k.checked_sub(1)?)?.as_ref()?,
+            compass.get(k)?.as_ref()?,
+        );
+        let (turn_deg, score) = profile_turn(a, b, COMPASS_MAX_TURN_DEG)?;
+        (score >= MIN_CORRELATION).then(|| Step::SeenTurn(turn_deg.to_radians()))
+    };
     // No cue where the profiles have none.
     let cues = cues.into_iter().chain(std::iter::repeat_with(Vec::new));
     ds.manifest
         .frames
         .iter()
         .zip(rops.into_iter().zip(compared).zip(matched).zip(cues))
-        .map(|(f, (((rop, compared), matched), cue_m))| Frame {
+        .enumerate()
+        .map(|(k, (f, (((rop, compared), matched), cue_m)))| Frame {
             label: f.image.clone(),
             sweep: f.sweep,
-            motion: f.motion.map(Step::Commanded),
+            motion: f.motion.map(Step::Commanded).or_else(|| seen_turn(k)),
             rop,
             compared,
             matched,

@@ -15,6 +15,7 @@ use pirouette_io::{Dataset, Motion};
 use pirouette_profile::matching::MatchView;
 use pirouette_profile::sweep::{assemble_views, join, pivot_from_turns, SweepConfig};
 use pirouette_profile::Rop;
+use pirouette_vision::compass::{self, BearingProfile};
 use pirouette_vision::{RopExtractor, VisionConfig};
 use rayon::prelude::*;
 
@@ -226,17 +227,30 @@ pub fn extractor(ds: &Dataset, model: Option<ModelKind>, config: VisionConfig) -
 /// `progress` is called once per finished frame.
 pub fn profiles(ds: &Dataset, extractor: &RopExtractor, progress: impl Fn() + Sync) -> Result<Vec<Rop>> {
     let mut sets = profiles_with(ds, &[extractor], progress)?;
-    Ok(sets.pop().expect("one extractor"))
+    Ok(sets.0.pop().expect("one extractor"))
 }
 
+/// Each frame's bearing profile for the visual compass (empty where no
+/// frame needs it).
+type Compass = Vec<Option<BearingProfile>>;
+
 /// The profile of every frame by each of `extractors` (one list per
-/// extractor, in capture order), each image read once.
+/// extractor, in capture order), each image read once, and where a
+/// frame's motion is unknown every frame's bearing profile.
 fn profiles_with(
     ds: &Dataset,
     extractors: &[&RopExtractor],
     progress: impl Fn() + Sync,
-) -> Result<Vec<Vec<Rop>>> {
-    let frames: Vec<Vec<Rop>> = (0..ds.manifest.frames.len())
+) -> Result<(Vec<Vec<Rop>>, Compass)> {
+    // The visual compass, where a frame after the first has no motion.
+    let frames = &ds.manifest.frames;
+    let compass_camera = frames
+        .iter()
+        .skip(1)
+        .any(|f| f.motion.is_none())
+        .then(|| ds.manifest.camera.pinhole_model())
+        .flatten();
+    let (frames, compass): (Vec<Vec<Rop>>, Compass) = (0..frames.len())
         .into_par_iter()
         .map(|i| {
             let img = ds.load_image(i)?;
@@ -245,10 +259,18 @@ fn profiles_with(
                 .iter()
                 .map(|e| e.rop(&img).map_err(|e| SlamError::from(e).at(name())))
                 .collect::<Result<Vec<Rop>>>()?;
+            let bearings = (compass_camera.as_ref()).and_then(|c| compass::bearing_profile(&img, c));
             progress();
-            Ok(rops)
+            Ok((rops, bearings))
         })
-        .collect::<Result<_>>()?;
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
+    let compass = if compass_camera.is_some() {
+        compass
+    } else {
+        Vec::new()
+    };
     let mut sets: Vec<Vec<Rop>> = extractors
         .iter()
         .map(|_| Vec::with_capacity(frames.len()))
@@ -258,7 +280,7 @@ fn profiles_with(
             set.push(rop);
         }
     }
-    Ok(sets)
+    Ok((sets, compass))
 }
 
 /// Every frame's profiles for sweeps and maps (see [`sweep_profiles`]).
@@ -291,7 +313,8 @@ pub fn sweep_profiles(
         .into_iter()
         .flatten()
         .collect();
-    let mut sets = profiles_with(ds, &extractors, progress)?.into_iter();
+    let (sets, compass) = profiles_with(ds, &extractors, progress)?;
+    let mut sets = sets.into_iter();
     let rops = sets.next().expect("the map's extractor");
     let compared = match comparing {
         Some(_) => sets.next().expect("the comparing extractor"),
@@ -314,6 +337,7 @@ pub fn sweep_profiles(
             compared,
             matched,
             cues,
+            compass,
         },
     })
 }

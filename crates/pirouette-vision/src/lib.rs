@@ -47,6 +47,7 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod boundary;
+pub mod compass;
 mod config;
 mod extract;
 mod scan;

@@ -187,7 +187,7 @@ fn motion_edges(
             let prev = &placed[s - 1];
             let (last, fallback_var) = last_frame(&sweeps[s - 1], prev, config);
             let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
-            let motion = input[sweeps[s].frames[0]].commanded();
+            let motion = input[sweeps[s].frames[0]].motion;
             let prior = motion_prior(&prev.rel(last), start_sigma, motion, config);
             graph::Edge {
                 i: s - 1,

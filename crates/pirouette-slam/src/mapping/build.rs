@@ -3,7 +3,7 @@
 //! then every frame fused into the grid.
 
 use crate::frame::DatasetSweep;
-use crate::frame::Frame;
+use crate::frame::{Frame, Step};
 use nalgebra::Matrix3;
 use pirouette_geom::Pose2;
 use pirouette_grid::OccupancyGrid;
@@ -231,7 +231,7 @@ fn place_in_turn(
         let state = match placed.last() {
             None => Placed::new(sweep, Pose2::IDENTITY, config.sweep.matching.pivot_m),
             Some(prev) => {
-                let prior = forward_prior(&sweeps[s - 1], prev, input[sweep.frames[0]].commanded(), config);
+                let prior = forward_prior(&sweeps[s - 1], prev, input[sweep.frames[0]].motion, config);
                 let mut state = Placed::new(sweep, prior.mean, config.sweep.matching.pivot_m);
                 state.prior = Some(prior);
                 let field = field_of(&inserted, input, blind_m, config)?;
@@ -312,7 +312,7 @@ fn fuse(
 pub(super) fn forward_prior(
     prev_sweep: &DatasetSweep,
     prev: &Placed,
-    motion: Option<Motion>,
+    motion: Option<Step>,
     config: &MapConfig,
 ) -> PosePrior {
     let (last, fallback_var) = last_frame(prev_sweep, prev, config);
@@ -327,14 +327,29 @@ pub(super) fn forward_prior(
 /// (whose heading is known to `start_sigma_theta_rad`): a commanded
 /// straight move, or a general move (odometry's turn and shift), whose
 /// turn errs as a commanded turn of that size; with no motion (an image
-/// stream without odometry) anything the frames' overlap allows
-/// ([`UNKNOWN_TURN_SIGMA_RAD`], [`UNKNOWN_SHIFT_SIGMA_M`]).
+/// stream without odometry) the turn the visual compass saw
+/// ([`COMPASS_SIGMA_RAD`]) or, where it saw none, anything the frames'
+/// overlap allows ([`UNKNOWN_TURN_SIGMA_RAD`]), the shift unknown
+/// ([`UNKNOWN_SHIFT_SIGMA_M`]).
 pub(super) fn motion_prior(
     start: &Pose2,
     start_sigma_theta_rad: f64,
-    motion: Option<Motion>,
+    step: Option<Step>,
     config: &MapConfig,
 ) -> PosePrior {
+    let motion = match step {
+        Some(Step::Commanded(m)) => Some(m),
+        Some(Step::SeenTurn(turn)) => {
+            return PosePrior {
+                mean: *start * Pose2::new(0.0, 0.0, turn),
+                sigma_forward_m: UNKNOWN_SHIFT_SIGMA_M,
+                sigma_left_m: UNKNOWN_SHIFT_SIGMA_M,
+                sigma_theta_rad: start_sigma_theta_rad.hypot(COMPASS_SIGMA_RAD),
+            }
+        }
+        // Camera frames carry no odometry.
+        None | Some(Step::Odometry(_)) => None,
+    };
     match motion {
         None => PosePrior {
             mean: *start,
@@ -380,6 +395,10 @@ pub(super) fn last_frame(sweep: &DatasetSweep, placed: &Placed, config: &MapConf
 /// for the images to tell the turn, so within three of these (45°) of a
 /// 60° camera.
 pub const UNKNOWN_TURN_SIGMA_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
+/// How far the visual compass's turn may err, one standard deviation: a
+/// wall 3 m away seen after a sideways move of 10 cm shifts by 1.9°.
+pub const COMPASS_SIGMA_RAD: f64 = 2.0 * std::f64::consts::PI / 180.0;
 
 /// How far a frame of unknown motion may have moved since the last, one
 /// standard deviation, metres (a slow robot between two frames).
