@@ -86,7 +86,7 @@ pub struct FrameProfiles {
 /// A frame whose motion is unknown takes the turn the visual compass
 /// sees from the previous frame (within [`COMPASS_MAX_TURN_DEG`], the
 /// profiles correlating at least
-/// [`MIN_CORRELATION`](pirouette_vision::compass::MIN_CORRELATION)).
+/// [`MIN_CORRELATION`]).
 pub fn camera_frames(ds: &Dataset, profiles: FrameProfiles) -> Vec<Frame> {
     let FrameProfiles {
         rops,
