@@ -611,17 +611,17 @@ mod tests {
         assert!((s.heading_rmse_deg - (0.01f64.powi(2) / 2.0).sqrt().to_degrees()).abs() < 1e-9);
     }
 
-    /// 40 steps of 10° (a turn and a half): every estimated step 0.2°
+    /// 40 steps of 10.5° (a turn and a sixth): every estimated step 0.2°
     /// short but the fifth, 2° long.
     #[test]
     fn turn_errors_and_the_heading_after_a_full_turn() {
         let deg = f64::to_radians;
         let truth: Vec<Pose2> = (0..41)
-            .map(|k| Pose2::new(0.1 * k as f64, 0.0, deg(10.0 * k as f64)))
+            .map(|k| Pose2::new(0.1 * k as f64, 0.0, deg(10.5 * k as f64)))
             .collect();
         let mut est = vec![Pose2::IDENTITY];
         for k in 0..40 {
-            let step = if k == 4 { 12.0 } else { 9.8 };
+            let step = if k == 4 { 12.5 } else { 10.3 };
             let last = est[k];
             est.push(Pose2::new(0.1 * (k + 1) as f64, 0.0, last.theta + deg(step)));
         }
@@ -630,9 +630,10 @@ mod tests {
         // The 95th percentile of 40 errors: the 38th smallest (0.2°); the
         // one 2° error is the largest.
         assert!((s.turn_error_p95_deg - 0.2).abs() < 1e-9, "{s:?}");
-        // 36 steps make the full turn: 35 short by 0.2°, one long by 2°.
+        // 35 steps make the full turn (367.5°): 34 short by 0.2°, one long
+        // by 2°.
         let after = s.heading_after_full_turn_deg.unwrap();
-        assert!((after - (35.0 * 0.2 - 2.0)).abs() < 1e-9, "{after}");
+        assert!((after - (34.0 * 0.2 - 2.0)).abs() < 1e-9, "{after}");
         // Half a turn is never a full one.
         assert_eq!(
             trajectory_scores(&est[..19], &truth[..19]).heading_after_full_turn_deg,
