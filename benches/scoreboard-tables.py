@@ -145,6 +145,17 @@ def tables(board):
         ("missed", "bins missed"), ("false_range", "free bins given a range"),
         ("wrong_verified", "turns > 3° off"), ("ate_aligned_m", "ATE aligned"),
         ("f1", "F1"), ("time_s", "time"), ("peak_mb", "peak memory")])
+    out += cases(board, "Real recordings (against motion capture, on its clock as found from "
+                 "the images)", lambda c: c.startswith("tum-") or " every " in c, [
+        ("ate_aligned_m", "ATE aligned"), ("heading_rmse_deg", "heading RMSE"),
+        ("turn_error_median_deg", "turn error median"), ("turn_error_p95_deg", "turn error p95"),
+        ("heading_after_full_turn_deg", "heading after a full turn"), ("time_s", "time"),
+        ("peak_mb", "peak memory")])
+    out += cases(board, "Places of the shared sets (index / queries)",
+                 lambda c: " / " in c and "seed" not in c, [
+        ("answers", "answers"), ("precision", "precision"), ("recall_at_1", "recall@1"),
+        ("far_wrong", "far queries answered wrong"), ("pose_error_max_deg", "largest heading error"),
+        ("pose_error_max_m", "largest position error"), ("time_s", "time")])
     out += cases(board, "Laser logs as recorded (against each log's recorded trajectory)",
                  lambda c: c.endswith(":as-recorded"), [
         ("rpe_1m_m", "RPE 1 m"), ("rpe_1m_deg", "RPE 1 m, rotation"), ("ate_m", "ATE"),
