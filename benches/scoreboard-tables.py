@@ -121,6 +121,15 @@ def cases(board, title, pick, columns):
     return out
 
 
+def command(recorded):
+    """The recorded command line, run as a checkout's release build (the
+    board may have run a copy of it, so that a rebuild did not touch it)."""
+    words = recorded.split()
+    if words and os.path.basename(words[0]).startswith("pirouette"):
+        words[0] = "target/release/pirouette"
+    return " ".join(words)
+
+
 def tables(board):
     p = board["provenance"]
     runs = board["rows"]
@@ -133,7 +142,7 @@ def tables(board):
         "Written by `benches/scoreboard-tables.py` from that run's scoreboard.json.",
         "",
         "```sh",
-        f"PIROUETTE_SHARED=$PWD/../shared {p['command']}",
+        f"PIROUETTE_SHARED=$PWD/../shared {command(p['command'])}",
         f"benches/scoreboard-tables.py OUT/scoreboard.json BENCHMARKS.md",
         "```",
         "",
