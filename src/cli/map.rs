@@ -393,6 +393,11 @@ pub fn eval_map(a: EvalMapArgs) -> Result<()> {
     };
     show_trajectory("trajectory", &r.trajectory)?;
     show_trajectory("commanded", &r.commanded)?;
+    outln!(
+        "profiles at the true poses: {:.1} % of {} obstacle points put in one place by a view from elsewhere",
+        100.0 * r.profile_agreement.share,
+        r.profile_agreement.points
+    )?;
     for e in &r.sweeps {
         outln!(
             "  sweep {:>2}: first frame off by {:.2} cm, {:+.2}°",

@@ -40,6 +40,11 @@ pub struct MapReport {
     /// trajectory's truth). Its fields stand beside the others in JSON.
     #[serde(flatten)]
     pub scene: Option<SceneScores>,
+    /// The profiles placed at the true poses: the share of their
+    /// obstacle points that another view, from elsewhere, puts in the
+    /// same place ([`profile_agreement`]); a figure of the profiles
+    /// alone, with or without a scene.
+    pub profile_agreement: ProfileAgreement,
     /// The truth's clock as found from the images, where the dataset's
     /// truth keeps another clock than its stamps
     /// ([`crate::eval::sync`]).
@@ -205,6 +210,10 @@ pub fn evaluate_map_dir(
             ),
         },
         scene,
+        profile_agreement: profile_agreement(
+            &inputs.frames.iter().map(|f| &f.rop).collect::<Vec<_>>(),
+            &world_truth,
+        ),
         clock: None,
     })
 }
@@ -439,6 +448,84 @@ pub fn trajectory_scores(estimated: &[Pose2], truth: &[Pose2]) -> TrajectoryScor
     }
 }
 
+/// How far apart two views must be for their agreement to count:
+/// metres ...
+pub const AGREEMENT_BASELINE_M: f64 = 0.5;
+/// ... or radians of heading (an eighth of a turn).
+pub const AGREEMENT_TURN_RAD: f64 = std::f64::consts::FRAC_PI_4;
+/// Within this, two views' points agree, metres.
+pub const AGREEMENT_TOLERANCE_M: f64 = 0.10;
+
+/// [`profile_agreement`]'s figure.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct ProfileAgreement {
+    /// Obstacle points of all the profiles (a range within the limit).
+    pub points: usize,
+    /// Of those with a view from elsewhere (at least
+    /// [`AGREEMENT_BASELINE_M`] away or [`AGREEMENT_TURN_RAD`] turned)
+    /// whose point lies within [`AGREEMENT_TOLERANCE_M`], the share.
+    pub share: f64,
+}
+
+/// Walls in one place: each profile's obstacle points placed at its true
+/// pose, and the share of them that a view from elsewhere (another place
+/// or heading) also puts within 10 cm. A wall is seen where it is from
+/// everywhere; a false obstacle (a stain taken for a wall's foot) lies at
+/// a range that moves with the robot, and only chance puts another view's
+/// there.
+pub fn profile_agreement(rops: &[&pirouette_profile::Rop], poses: &[Pose2]) -> ProfileAgreement {
+    use std::collections::HashMap;
+    let cell = |p: Point2| {
+        (
+            (p.x / AGREEMENT_TOLERANCE_M).floor() as i64,
+            (p.y / AGREEMENT_TOLERANCE_M).floor() as i64,
+        )
+    };
+    let mut points: Vec<(usize, Point2)> = Vec::new();
+    for (i, (rop, pose)) in rops.iter().zip(poses).enumerate() {
+        for b in 0..rop.len() {
+            if let Some(r) = rop.reliable(b) {
+                let (s, c) = rop.bin_centre_rad(b).sin_cos();
+                points.push((
+                    i,
+                    pose.transform_point(Point2::new(f64::from(r) * c, f64::from(r) * s)),
+                ));
+            }
+        }
+    }
+    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for (k, &(_, p)) in points.iter().enumerate() {
+        grid.entry(cell(p)).or_default().push(k);
+    }
+    let elsewhere = |i: usize, j: usize| {
+        poses[i].translation().distance(poses[j].translation()) >= AGREEMENT_BASELINE_M
+            || wrap_angle(poses[i].theta - poses[j].theta).abs() >= AGREEMENT_TURN_RAD
+    };
+    let agreed = (points.iter())
+        .filter(|&&(i, p)| {
+            let (cx, cy) = cell(p);
+            (cx - 1..=cx + 1).any(|x| {
+                (cy - 1..=cy + 1).any(|y| {
+                    grid.get(&(x, y)).is_some_and(|ks| {
+                        ks.iter().any(|&k| {
+                            let (j, q) = points[k];
+                            q.distance(p) <= AGREEMENT_TOLERANCE_M && elsewhere(i, j)
+                        })
+                    })
+                })
+            })
+        })
+        .count();
+    ProfileAgreement {
+        points: points.len(),
+        share: if points.is_empty() {
+            0.0
+        } else {
+            agreed as f64 / points.len() as f64
+        },
+    }
+}
+
 /// Quality of a map's occupied cells against the true obstacles.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct MapQuality {
@@ -638,6 +725,43 @@ mod tests {
         assert_eq!(
             trajectory_scores(&est[..19], &truth[..19]).heading_after_full_turn_deg,
             None
+        );
+    }
+
+    /// A wall's foot seen from two places a metre apart agrees; a false
+    /// obstacle 1.2 m ahead of each view does not; one place twice is no
+    /// second view.
+    #[test]
+    fn walls_agree_across_views_and_false_obstacles_do_not() {
+        use pirouette_profile::Rop;
+        // One bin straight ahead.
+        let ahead = |range: f32| {
+            let mut rop = Rop::empty(-0.01, 0.02, 1, 4.0);
+            rop.range_m[0] = range;
+            rop
+        };
+        let poses = [Pose2::IDENTITY, Pose2::new(1.0, 0.0, 0.0)];
+        // The wall at x = 2: 2 m from the first, 1 m from the second.
+        let wall = profile_agreement(&[&ahead(2.0), &ahead(1.0)], &poses);
+        assert_eq!((wall.points, wall.share), (2, 1.0));
+        // 5 cm off still agrees; 15 cm does not.
+        assert_eq!(profile_agreement(&[&ahead(2.0), &ahead(1.05)], &poses).share, 1.0);
+        assert_eq!(profile_agreement(&[&ahead(2.0), &ahead(1.15)], &poses).share, 0.0);
+        // A stain 1.2 m ahead of each: 1 m apart on the floor.
+        assert_eq!(profile_agreement(&[&ahead(1.2), &ahead(1.2)], &poses).share, 0.0);
+        // The same point from one place turned by 45° (seen 45° right) is
+        // from elsewhere; turned by 10°, not.
+        let turned = |deg: f64| {
+            let mut rop = Rop::empty(-deg.to_radians() - 0.01, 0.02, 1, 4.0);
+            rop.range_m[0] = 2.0;
+            let poses = [Pose2::IDENTITY, Pose2::new(0.0, 0.0, deg.to_radians())];
+            profile_agreement(&[&ahead(2.0), &rop], &poses).share
+        };
+        assert_eq!((turned(45.0), turned(10.0)), (1.0, 0.0));
+        // Beyond the range limit is no obstacle.
+        assert_eq!(
+            profile_agreement(&[&ahead(f32::INFINITY), &ahead(5.0)], &poses).points,
+            0
         );
     }
 

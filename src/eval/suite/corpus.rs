@@ -161,6 +161,7 @@ const REAL_FIGURES: &[&str] = &[
     "turn_error_median_deg",
     "turn_error_p95_deg",
     "heading_after_full_turn_deg",
+    "profile_agreement",
 ];
 /// A places case's figures; the first three are given whatever the
 /// answers (the rest need an answer, or a right one).

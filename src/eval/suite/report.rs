@@ -30,6 +30,7 @@ const FIGURES: &[FigureInfo] = &[
     fig("turn_error_median_deg", true, 0.02),
     fig("turn_error_p95_deg", true, 0.05),
     fig("heading_after_full_turn_deg", true, 0.05),
+    fig("profile_agreement", false, 0.005),
     fig("f1", false, 0.005),
     fig("precision", false, 0.0),
     fig("recall_at_1", false, 0.0),

@@ -185,6 +185,7 @@ impl Runner {
                                 "heading_after_full_turn_deg",
                                 "/trajectory/heading_after_full_turn_deg",
                             ),
+                            ("profile_agreement", "/profile_agreement/share"),
                         ],
                     );
                 }
