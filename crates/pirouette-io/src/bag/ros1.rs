@@ -538,7 +538,7 @@ impl MessageSource for Ros1Bag {
         let mut w = Vec::new();
         if let Some(at) = self.cut_at {
             w.push(format!(
-                "{}: the bag is cut short inside the record at byte {at}: what came before it is read",
+                "{}: the bag is cut short inside the record at byte {at} (or that record's length is damaged): what came before it is read",
                 self.path.display()
             ));
         }
