@@ -51,6 +51,10 @@ pub fn suite(a: SuiteArgs) -> Result<()> {
         .corpus
         .clone()
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("datasets/corpus.toml"));
+    // Absolute: scene files and rigs are named relative to its folder, and
+    // inputs made from them are read from elsewhere.
+    let corpus_path = std::path::absolute(&corpus_path)
+        .with_context(|| format!("{}: no such corpus", corpus_path.display()))?;
     let corpus = Corpus::read(&corpus_path)?;
     if let Some(b) = &a.base {
         if !b.is_file() {
