@@ -23,6 +23,8 @@ END = "<!-- scoreboard-tables: end -->"
 
 # Figures shown as percentages.
 PERCENT = {"missed", "false_range", "wrong_unmarked_share"}
+# Figures that count things.
+COUNTS = {"wrong_verified", "far_wrong", "relations_unmatched", "answers", "iterations"}
 # Names for people.
 NAMES = {
     "missed": "profile bins missed",
@@ -41,6 +43,11 @@ NAMES = {
     "time_vs_cartographer": "time over Cartographer's published",
     "chi2_vs_reference": "χ² over the reference",
     "inlier_chi2_vs_reference": "outliers: χ² of the true edges over the reference",
+    "heading_rmse_deg": "heading RMSE",
+    "turn_error_median_deg": "turn error median",
+    "turn_error_p95_deg": "turn error p95",
+    "heading_after_full_turn_deg": "heading after a full turn",
+    "profile_agreement": "profile agreement",
     "time_s": "time",
     "peak_mb": "peak memory",
 }
@@ -50,6 +57,8 @@ def num(v, figure=""):
     """A figure with about three significant digits, in its unit."""
     if v is None:
         return "missing"
+    if figure in COUNTS and v == int(v):
+        return f"{int(v)}"
     if figure in PERCENT:
         return f"{100 * v:.2f} %"
     if figure == "time_s":
@@ -66,7 +75,24 @@ def num(v, figure=""):
         return f"{v:g}"
     if abs(v) >= 100:
         return f"{v:.0f}"
-    return f"{v:.3g}" if abs(v) >= 1 else f"{v:.3f}"
+    return f"{v:#.3g}" if abs(v) >= 1 else f"{v:.3f}"
+
+
+def bound(text, figure):
+    """A target or gate (`≤ 0.02`, `≥ 0.9`, `0.1-0.2`) in its figure's unit."""
+    for sign in ("≤ ", "≥ "):
+        if text.startswith(sign):
+            return sign + num(float(text[len(sign):]), figure)
+    lo, dash, hi = text.partition("-")
+    if dash and lo and hi:
+        return f"{num(float(lo), figure)} to {num(float(hi), figure)}"
+    return text
+
+
+def short(error, n=100):
+    """A failure's reason, cut to `n` characters."""
+    reason = error.rsplit("error: ", 1)[-1]
+    return reason if len(reason) <= n else reason[: n - 1] + "…"
 
 
 def minutes(s):
@@ -85,9 +111,9 @@ def summary(board):
         figures = sorted(s["figures"].items(), key=lambda kv: kv[0] in ("time_s", "peak_mb"))
         for name, f in figures:
             gate = f.get("gate")
-            target = f["target"]
+            target = bound(f["target"], name)
             if gate:
-                target += " (gated)" if gate == target else f" (gate {gate})"
+                target += " (gated)" if gate == f["target"] else f" (gate {bound(gate, name)})"
             worst = num(f["worst"], name)
             if f["worst_case"]:
                 worst += f" ({f['worst_case']})"
@@ -97,7 +123,7 @@ def summary(board):
             out.append("| " + " | ".join(cells) + " |")
             first = False
         if s["failed"]:
-            out.append(f"| {kind} | | failed to run | | {'; '.join(s['failed'])} | | |")
+            out.append(f"| | | failed to run | | {len(s['failed'])} (below) | | |")
     return out
 
 
@@ -111,7 +137,7 @@ def cases(board, title, pick, columns):
     for r in sorted(rows, key=lambda r: r["case"]):
         cells = [r["case"]]
         if r.get("error"):
-            cells += [""] * len(columns) + [f"failed: {r['error']}"]
+            cells += [""] * len(columns) + [f"failed: {short(r['error'])}"]
         else:
             missed = {m["figure"] for m in r["misses"]}
             cells += [num(r["figures"][f], f) if f in r["figures"]
@@ -182,9 +208,14 @@ def tables(board):
         ("chi2_vs_reference", "χ² over the reference"),
         ("inlier_chi2_vs_reference", "true edges' χ² over the reference"),
         ("iterations", "iterations"), ("time_s", "time")])
-    failures = [f"{r['case']}: {g}" for r in runs for g in r.get("gate_failures", [])]
-    out += ["", f"Gated targets failed (`eval suite --check` fails on them): "
-            f"{len(failures)}" + (f": {'; '.join(failures)}." if failures else ".")]
+    by_figure = {}
+    for r in runs:
+        for g in r.get("gate_failures", []):
+            by_figure[g] = by_figure.get(g, 0) + 1
+    total = sum(by_figure.values())
+    listed = ", ".join(f"{NAMES.get(g, g)} {n}" for g, n in sorted(by_figure.items()))
+    out += ["", f"Gated targets failed (`eval suite --check` fails on them; the cases are in "
+            f"scoreboard.md): {total}" + (f" ({listed})." if total else ".")]
     out.append(END)
     return "\n".join(out) + "\n"
 
