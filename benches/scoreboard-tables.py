@@ -22,7 +22,7 @@ BEGIN = "<!-- scoreboard-tables: begin -->"
 END = "<!-- scoreboard-tables: end -->"
 
 # Figures shown as percentages.
-PERCENT = {"missed", "false_range", "wrong_unmarked_share"}
+PERCENT = {"missed", "false_range", "wrong_unmarked_share", "profile_agreement"}
 # Figures that count things.
 COUNTS = {"wrong_verified", "far_wrong", "relations_unmatched", "answers", "iterations"}
 # Names for people.
@@ -184,7 +184,8 @@ def tables(board):
                  "the images)", lambda c: c.startswith("tum-") or " every " in c, [
         ("ate_aligned_m", "ATE aligned"), ("heading_rmse_deg", "heading RMSE"),
         ("turn_error_median_deg", "turn error median"), ("turn_error_p95_deg", "turn error p95"),
-        ("heading_after_full_turn_deg", "heading after a full turn"), ("time_s", "time"),
+        ("heading_after_full_turn_deg", "heading after a full turn"),
+        ("profile_agreement", "profile agreement"), ("time_s", "time"),
         ("peak_mb", "peak memory")])
     out += cases(board, "Places of the shared sets (index / queries)",
                  lambda c: " / " in c and "seed" not in c, [
