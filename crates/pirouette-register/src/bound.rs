@@ -4,7 +4,8 @@
 //!
 //! A block of `2ʰ × 2ʰ` translations at one rotation scores at most the sum,
 //! over the endpoints, of the field's largest value in the block each
-//! endpoint sweeps ([`Pyramid`], level `h`), plus the prior's largest value
+//! endpoint sweeps (bounded by the field's pooled level `h`,
+//! [`LikelihoodField::pooled`]), plus the prior's largest value
 //! over the block. A block whose bound falls below the best score found so
 //! far less the margin cannot hold a pose the posterior keeps, and is
 //! dropped whole; the others split into four, best first, down to single
@@ -22,134 +23,34 @@ use pirouette_geom::wrap_angle;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 /// The coarsest level a search starts from: blocks of `2⁶ = 64` cells a
-/// side. Wider windows start from several blocks; more levels would cost
-/// more to build than they save.
-pub(crate) const TOP_LEVEL: usize = 6;
+/// side (the field's coarsest pooled level). Wider windows start from
+/// several blocks.
+pub(crate) const TOP_LEVEL: usize = crate::field::POOLED_LEVELS;
 
-/// Max-pooled levels of a likelihood field over the cells one search can
-/// reach: level `h` holds at cell `(i, j)` the largest field value over the
-/// cells `[i, i + 2ʰ) × [j, j + 2ʰ)` (the floor beyond the field).
-///
-/// # Memory
-/// Four bytes per cell of the reach (the endpoints' cells over every
-/// rotation, widened by the translation window and a top block) per level.
-pub(crate) struct Pyramid {
-    levels: Vec<Level>,
+/// A field's pooled levels as a search looks them up.
+pub(crate) struct Pyramid<'f> {
+    pub field: &'f LikelihoodField,
+    /// The coarsest level a search starts from.
+    pub top: usize,
 }
 
-/// One level of a [`Pyramid`]: a block of cells from `origin`, row-major.
-pub(crate) struct Level {
-    origin: (i64, i64),
-    width: usize,
-    height: usize,
-    values: Vec<f32>,
-    floor: f32,
-}
-
-impl Level {
-    /// The value at cell `(i, j)`, the floor outside the block (where no
-    /// search looks).
+impl Pyramid<'_> {
+    /// The sum over `cells`, each moved by `(a, b)`, of level `h`'s bound
+    /// of the block of side `2ʰ` from there, in the order given (the
+    /// exhaustive search's order: its rounding, at `h = 0`).
     #[inline]
-    fn get(&self, i: i64, j: i64) -> f32 {
-        let (x, y) = (i.wrapping_sub(self.origin.0), j.wrapping_sub(self.origin.1));
-        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
-            self.values[y as usize * self.width + x as usize]
-        } else {
-            self.floor
-        }
-    }
-
-    /// The sum over `cells`, each moved by `(a, b)`, in the order given
-    /// (the exhaustive search's order: its rounding).
-    #[inline]
-    fn sum(&self, cells: &[(i64, i64)], a: i64, b: i64) -> f32 {
+    fn sum(&self, h: usize, cells: &[(i64, i64)], a: i64, b: i64) -> f32 {
         let mut s = 0f32;
-        for &(i, j) in cells {
-            s += self.get(i + a, j + b);
+        if h == 0 {
+            for &(i, j) in cells {
+                s += self.field.cell(i + a, j + b);
+            }
+        } else {
+            for &(i, j) in cells {
+                s += self.field.pooled(h, i + a, j + b);
+            }
         }
         s
-    }
-
-    /// The next level up over the same block: at each cell the largest of
-    /// this level at the cell and `half` cells on along each axis (max is
-    /// exact in any order). Cells on past the block take the floor, so a
-    /// level is exact `2ʰ − 1` cells short of the block's far edges.
-    fn pooled(&self, half: usize) -> Level {
-        let (w, h) = (self.width, self.height);
-        let floor = self.floor;
-        let mut values = Vec::with_capacity(w * h);
-        for y in 0..h {
-            let row = &self.values[y * w..][..w];
-            let up = (y + half < h).then(|| &self.values[(y + half) * w..][..w]);
-            let inside = w.saturating_sub(half);
-            match up {
-                Some(up) => {
-                    values
-                        .extend((0..inside).map(|x| row[x].max(row[x + half]).max(up[x].max(up[x + half]))));
-                    values.extend((inside..w).map(|x| row[x].max(floor).max(up[x].max(floor))));
-                }
-                None => {
-                    values.extend((0..inside).map(|x| row[x].max(row[x + half]).max(floor)));
-                    values.extend((inside..w).map(|x| row[x].max(floor).max(floor)));
-                }
-            }
-        }
-        Level {
-            values,
-            origin: self.origin,
-            width: w,
-            height: h,
-            floor,
-        }
-    }
-}
-
-impl Pyramid {
-    /// Levels `0..=top` of `field` over the cells from `lo` to `hi`
-    /// (inclusive) that a search looks up at level 0; the block is widened
-    /// by a top block so that every level is exact where it is looked up.
-    pub(crate) fn new(field: &LikelihoodField, lo: (i64, i64), hi: (i64, i64), top: usize) -> Self {
-        let pad = 1i64 << top;
-        let (width, height) = ((hi.0 - lo.0 + pad) as usize, (hi.1 - lo.1 + pad) as usize);
-        let floor = field.floor();
-        // The field's rows copied where they overlap the block, the floor
-        // elsewhere (what `LikelihoodField::cell` answers there).
-        let (min, fw, fh, field_values) = field.raw();
-        let (x0, x1) = (lo.0.max(min.0), (lo.0 + width as i64).min(min.0 + fw as i64));
-        let mut values = Vec::with_capacity(width * height);
-        for j in lo.1..lo.1 + height as i64 {
-            let fy = j - min.1;
-            if x0 >= x1 || fy < 0 || fy >= fh as i64 {
-                values.extend(std::iter::repeat_n(floor, width));
-                continue;
-            }
-            let row = &field_values[fy as usize * fw..][..fw];
-            values.extend(std::iter::repeat_n(floor, (x0 - lo.0) as usize));
-            values.extend_from_slice(&row[(x0 - min.0) as usize..(x1 - min.0) as usize]);
-            values.extend(std::iter::repeat_n(floor, (lo.0 + width as i64 - x1) as usize));
-        }
-        let mut levels = vec![Level {
-            origin: lo,
-            width,
-            height,
-            values,
-            floor,
-        }];
-        for h in 1..=top {
-            let next = levels[h - 1].pooled(1 << (h - 1));
-            levels.push(next);
-        }
-        Self { levels }
-    }
-
-    /// Level `h`.
-    pub(crate) fn level(&self, h: usize) -> &Level {
-        &self.levels[h]
-    }
-
-    /// The coarsest level.
-    pub(crate) fn top(&self) -> usize {
-        self.levels.len() - 1
     }
 }
 
@@ -249,6 +150,11 @@ impl SharedBest {
         Self(AtomicU64::new(f64::NEG_INFINITY.to_bits()))
     }
 
+    /// A best already known, `score`.
+    pub(crate) fn at(score: f64) -> Self {
+        Self(AtomicU64::new(score.to_bits()))
+    }
+
     pub(crate) fn get(&self) -> f64 {
         f64::from_bits(self.0.load(Ordering::Relaxed))
     }
@@ -268,11 +174,33 @@ pub(crate) struct Kept {
     pub score: f64,
 }
 
+/// Translations `[a0, a1] × [b0, b1]` of one rotation left out of a
+/// search (the best answer's own neighbourhood, when rivals are sought).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Excluded {
+    pub a: (i64, i64),
+    pub b: (i64, i64),
+}
+
+impl Excluded {
+    /// Whether translation `(a, b)` lies inside.
+    pub(crate) fn contains(&self, a: i64, b: i64) -> bool {
+        self.holds(a, a, b, b)
+    }
+
+    /// Whether the box `[a0, a1] × [b0, b1]` lies wholly inside.
+    fn holds(&self, a0: i64, a1: i64, b0: i64, b1: i64) -> bool {
+        self.a.0 <= a0 && a1 <= self.a.1 && self.b.0 <= b0 && b1 <= self.b.1
+    }
+}
+
 /// Every translation of one rotation whose score (field sum over `cells`
 /// moved by `(a, b)`, plus `prior`) is at least the best score any search
-/// sharing `best` finds, plus `margin_ln` (negative), unsorted; among them
-/// surely all that reach the final best plus `margin_ln`. `nodes` counts
+/// sharing `best` finds, plus `margin_ln` (zero or negative), unsorted;
+/// among them surely all that reach the final best plus `margin_ln`.
+/// Translations `excluded` are neither scored nor kept. `nodes` counts
 /// the blocks and poses scored.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn search_rotation(
     pyramid: &Pyramid,
     cells: &[(i64, i64)],
@@ -280,20 +208,26 @@ pub(crate) fn search_rotation(
     prior: &impl PriorTerm,
     best: &SharedBest,
     margin_ln: f64,
+    excluded: Option<Excluded>,
     nodes: &AtomicUsize,
 ) -> Vec<Kept> {
-    let top = pyramid.top();
+    let top = pyramid.top;
     // The bound of the block of side 2ʰ from `(a0, b0)`, clipped to the
     // lattice; at h = 0 the pose's exact score.
     let bound = |a0: i64, b0: i64, h: usize| -> f64 {
-        let level = pyramid.level(h);
-        let sum = level.sum(cells, a0, b0) as f64;
+        let sum = pyramid.sum(h, cells, a0, b0) as f64;
         if h == 0 {
             sum + prior.at(a0, b0)
         } else {
             let last = (1i64 << h) - 1;
             sum + prior.at_most(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny)) + BOUND_SLACK
         }
+    };
+    // Whether the block of side 2ʰ from `(a0, b0)` lies wholly in the
+    // excluded box.
+    let left_out = |a0: i64, b0: i64, h: usize| {
+        let last = (1i64 << h) - 1;
+        excluded.is_some_and(|e| e.holds(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny)))
     };
     let mut kept = Vec::new();
     // The top blocks tile the lattice; the most promising is searched
@@ -302,6 +236,7 @@ pub(crate) fn search_rotation(
     let mut stack: Vec<(i64, i64, usize, f64)> = (-block.ny..=block.ny)
         .step_by(step)
         .flat_map(|b0| (-block.nx..=block.nx).step_by(step).map(move |a0| (a0, b0)))
+        .filter(|&(a0, b0)| !left_out(a0, b0, top))
         .map(|(a0, b0)| (a0, b0, top, bound(a0, b0, top)))
         .collect();
     let mut scored = stack.len();
@@ -324,7 +259,7 @@ pub(crate) fn search_rotation(
         children.clear();
         for (da, db) in [(0, 0), (half, 0), (0, half), (half, half)] {
             let (a, b) = (a0 + da, b0 + db);
-            if a <= block.nx && b <= block.ny {
+            if a <= block.nx && b <= block.ny && !left_out(a, b, h - 1) {
                 scored += 1;
                 let v = bound(a, b, h - 1);
                 if v >= best.get() + margin_ln {
@@ -343,42 +278,8 @@ pub(crate) fn search_rotation(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pirouette_geom::Point2;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    #[test]
-    fn pooled_levels_hold_the_largest_value_of_their_block() {
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let pts: Vec<Point2> = (0..40)
-            .map(|_| Point2::new(rng.random_range(0.0..0.3), rng.random_range(-0.1..0.2)))
-            .collect();
-        let field = LikelihoodField::from_points(&pts, 0.01, 0.015, 0.2);
-        let (min, w, h, _) = field.raw();
-        // A block reaching beyond the field on every side.
-        let (lo, hi) = (
-            (min.0 - 20, min.1 - 20),
-            (min.0 + w as i64 + 20, min.1 + h as i64 + 20),
-        );
-        let pyramid = Pyramid::new(&field, lo, hi, 4);
-        assert_eq!(pyramid.top(), 4);
-        for level in 0..=4usize {
-            let side = 1i64 << level;
-            let l = pyramid.level(level);
-            // Every cell a search from the block's cells looks up.
-            for j in lo.1..=hi.1 {
-                for i in lo.0..=hi.0 {
-                    let mut most = f32::NEG_INFINITY;
-                    for y in j..j + side {
-                        for x in i..i + side {
-                            most = most.max(field.cell(x, y));
-                        }
-                    }
-                    assert_eq!(l.get(i, j), most, "level {level} at ({i}, {j})");
-                }
-            }
-        }
-    }
 
     #[test]
     fn the_least_of_a_form_over_a_box_is_the_brute_force_least() {

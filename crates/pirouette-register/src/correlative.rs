@@ -2,7 +2,7 @@
 //! over translation and rotation, then a local refinement below one cell,
 //! with the covariance of the pose from the spread of the search.
 
-use crate::bound::{search_rotation, Block, GaussianTerm, Kept, Pyramid, SharedBest, TOP_LEVEL};
+use crate::bound::{search_rotation, Block, Excluded, GaussianTerm, Kept, Pyramid, SharedBest, TOP_LEVEL};
 use crate::field::{LikelihoodField, Neighbourhood};
 use crate::floor_i64;
 use crate::RegisterError;
@@ -226,15 +226,39 @@ pub struct RegisterConfig {
     pub rival_apart_m: f64,
     /// The same in heading, radians.
     pub rival_apart_rad: f64,
+    /// Rivals are sought this far below the best score, nats: a peak
+    /// lower than that is no second answer, and the search for it stops
+    /// there (with [`Covariance::Laplace`]; the whole posterior holds every
+    /// peak within `10⁻⁹` of the best's weight).
+    pub rival_gap_ln: f64,
+    /// Where the covariance comes from.
+    pub covariance: Covariance,
     /// The most lattice poses the posterior may spread over (weights of
     /// at least `10⁻⁹` of the best's) for the match to be trusted: one
-    /// that loose does not pin the pose (a featureless view, or a wide
-    /// search through look-alike places), and holding its poses would
-    /// take 32 MB per million. The branch-and-bound search counts, after
-    /// every batch of rotations, the poses near the best found so far (a
-    /// superset of the final ones): it may give up on a posterior just
-    /// under the limit that the exhaustive search keeps.
+    /// that loose does not pin the pose (a featureless view). Counted in
+    /// Laplace's Gaussian at the refined pose (its ellipsoid's volume in
+    /// lattice cells), and among the poses apart from the best within
+    /// [`RegisterConfig::rival_gap_ln`] of it (a wide search through
+    /// look-alike places).
     pub max_spread_poses: usize,
+}
+
+/// Where [`register`]'s covariance comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Covariance {
+    /// The lattice's whole posterior: every pose within `10⁻⁹` of the
+    /// best's weight found and weighed, the best refined by a pattern
+    /// search. It keeps the spread of broad and many-peaked posteriors (a
+    /// camera frame's narrow view, a sweep in a look-alike room), and the
+    /// search cannot stop at the best.
+    #[default]
+    Posterior,
+    /// Laplace's: the curvature of the exact score at the best pose
+    /// refined by Gauss-Newton steps (each endpoint held by the surface its
+    /// obstacle lies on), the lattice's quantisation and a rival peak's
+    /// mass added; the search stops at the best, and a second one bounded
+    /// by [`RegisterConfig::rival_gap_ln`] finds the rival.
+    Laplace,
 }
 
 /// How [`register`] searches its lattice. Both find the same best pose and
@@ -259,8 +283,8 @@ impl Default for RegisterConfig {
     /// a ±3σ window of at most ±1 m; endpoints counted once per 3 cm (2σ:
     /// closer ones share their error); at least 10 of them (30 cm of edge)
     /// on mapped obstacles; the branch-and-bound search; any peak beyond the
-    /// best one's lattice neighbours a rival; a posterior over more than 2²⁰
-    /// poses not trusted.
+    /// best one's lattice neighbours within 10 nats of it (a factor of
+    /// 22,000) a rival; a posterior over more than 2²⁰ poses not trusted.
     fn default() -> Self {
         Self {
             sigma_m: 0.015,
@@ -275,6 +299,8 @@ impl Default for RegisterConfig {
             search: Search::BranchAndBound,
             rival_apart_m: 0.0,
             rival_apart_rad: 0.0,
+            rival_gap_ln: 10.0,
+            covariance: Covariance::Posterior,
             max_spread_poses: 1 << 20,
         }
     }
@@ -305,11 +331,12 @@ pub struct Registration {
 }
 
 /// A second peak of the registration's posterior: the best local maximum
-/// of the lattice's scores that is not the best pose or its neighbour,
-/// among the poses whose posterior weight counts (at least `10⁻⁹` of the
-/// best's). Its weight is in the covariance already; how far it falls
-/// below the best says how ambiguous the match is (a gap of a few nats on
-/// a wide search means a look-alike pose nearly as good).
+/// of the lattice's scores apart from the best pose (see
+/// [`RegisterConfig::rival_apart_m`]), within
+/// [`RegisterConfig::rival_gap_ln`] of it. The covariance (Laplace's, of
+/// the best peak alone) leaves it out; how far it falls below the best
+/// says how ambiguous the match is (a gap of a few nats on a wide search
+/// means a look-alike pose nearly as good).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rival {
     /// The rival pose, `world_from_robot`, on the search lattice.
@@ -336,20 +363,24 @@ pub fn thin_points(points: &[Point2], cell_m: f64) -> Vec<Point2> {
 ///
 /// The search covers a lattice spanning the prior's ± `window_sigmas` box:
 /// rotations a step apart that moves the farthest endpoint by at most one
-/// cell, translations one cell apart. It finds every lattice pose whose
-/// posterior weight (score plus prior, exponentiated) is at least `10⁻⁹` of
-/// the best's, by branch and bound or exhaustively
-/// ([`RegisterConfig::search`]). The best lattice pose is then refined by a
-/// shrinking pattern search on the exact field down to 1/16 cell. The
-/// covariance is that of the lattice's posterior, so that it grows along a
-/// corridor and with few endpoints, and a rival peak within the posterior
-/// is reported ([`Registration::rival`]).
+/// cell, translations one cell apart. It finds the lattice pose of highest
+/// posterior score (the field summed over the endpoints plus the prior's
+/// log density), by branch and bound or exhaustively
+/// ([`RegisterConfig::search`]), and refines it on the exact field by
+/// Gauss-Newton steps. The covariance is Laplace's at the refined pose:
+/// the inverse of the curvature of the score there, so that it grows
+/// along a corridor and with few endpoints. A second search, bounded by
+/// [`RegisterConfig::rival_gap_ln`] below the best, finds a rival peak
+/// apart from the best ([`Registration::rival`]).
 pub fn register(
     field: &LikelihoodField,
     points_robot: &[Point2],
     prior: &PosePrior,
     config: &RegisterConfig,
 ) -> Result<Registration, RegisterError> {
+    if config.covariance == Covariance::Posterior {
+        return posterior::register_posterior(field, points_robot, prior, config);
+    }
     prior.check()?;
     let res = field.resolution_m();
     let points = thin_points(points_robot, config.spacing_m.max(res));
@@ -366,20 +397,16 @@ pub fn register(
     if points.len() < config.min_matched || field.obstacle_points() == 0 {
         return Ok(fallback(field.floor() as f64, 0, 0));
     }
-    // The lattice about the prior's mean, searched for every pose whose
-    // posterior weight counts.
     let (lattice, nt) = Lattice::around(prior, &points, res, config);
     let cells_at = |kt: i64| lattice.cells_at(&points, kt);
-    let found = match config.search {
-        Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at, config.max_spread_poses),
-        Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at, config.max_spread_poses),
+    let search = match config.search {
+        Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at),
+        Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at),
     };
-    let (kept, evaluated) = match found {
-        Found::Poses(kept, evaluated) => (kept, evaluated),
-        Found::SpreadOut(evaluated) => return Ok(fallback(field.floor() as f64, 0, evaluated)),
+    let Some(mut search) = search else {
+        return Ok(fallback(field.floor() as f64, 0, 0));
     };
-    // Its best pose, spread and rival peak.
-    let (best, covariance, rival) = lattice.posterior(kept, config);
+    let best = search.best;
     let theta_step = lattice.theta_step;
     let start = Pose2::new(
         prior.mean.x + best.1 as f64 * res,
@@ -389,11 +416,100 @@ pub fn register(
     // Refinement moves the pose by about a cell: the obstacles near each
     // endpoint's start decide its exact values there.
     let anchored = Anchored::new(field, &points, start, res);
-    let pose = refine(&anchored, prior, res, theta_step);
+    let (pose, information) = refine(&anchored, prior, res, theta_step);
+    let Some(laplace) = information.try_inverse().map(|c| 0.5 * (c + c.transpose())) else {
+        return Ok(fallback(field.floor() as f64, 0, search.evaluated));
+    };
+    // The lattice's own quantisation (a uniform cell) added, as the
+    // search resolves no finer.
+    let covariance = laplace
+        + Matrix3::from_diagonal(&Vector3::new(
+            res * res / 12.0,
+            res * res / 12.0,
+            theta_step * theta_step / 12.0,
+        ));
+    if lattice.spread_poses(&covariance, nt) > config.max_spread_poses as f64 {
+        return Ok(fallback(field.floor() as f64, 0, search.evaluated));
+    }
     let (sum, matched) = anchored.evaluate(&pose);
     let mean_ll = sum / points.len() as f64;
     if matched < config.min_matched {
-        return Ok(fallback(mean_ll, matched, evaluated));
+        return Ok(fallback(mean_ll, matched, search.evaluated));
+    }
+    let Some(rival) = search.rival(&lattice, nt, &cells_at, config) else {
+        return Ok(fallback(mean_ll, matched, search.evaluated));
+    };
+    let rival = rival.map(|(kt, k)| {
+        let x = lattice.pose(k.a, k.b, kt);
+        Rival {
+            pose: Pose2::new(x[0], x[1], x[2]),
+            below_best_ln: best.0 - k.score,
+        }
+    });
+    // The rival's mass: the covariance of the two peaks as a mixture,
+    // weighed by their scores (`w(1 − w)·ΔΔᵀ` added).
+    let covariance = match rival {
+        Some(r) => {
+            let d = Vector3::new(
+                r.pose.x - pose.x,
+                r.pose.y - pose.y,
+                wrap_angle(r.pose.theta - pose.theta),
+            );
+            let w = 1.0 / (1.0 + r.below_best_ln.exp());
+            covariance + d * d.transpose() * (w * (1.0 - w))
+        }
+        None => covariance,
+    };
+    Ok(Registration {
+        pose,
+        covariance,
+        mean_log_likelihood: mean_ll,
+        points: points.len(),
+        matched,
+        accepted: true,
+        evaluated: search.evaluated,
+        rival,
+    })
+}
+
+/// Refines the prior's mean on the exact field by the Gauss-Newton steps
+/// [`register`] takes after its search, without the search: the nearest
+/// peak of the score from the prior's mean, for a frame whose prior is
+/// known to be close (within a cell or so). The covariance is Laplace's
+/// there; no rival is sought (`rival` is `None`). Trusted, as
+/// [`register`]'s matches are, where enough endpoints lie on the map.
+pub fn refine_from_prior(
+    field: &LikelihoodField,
+    points_robot: &[Point2],
+    prior: &PosePrior,
+    config: &RegisterConfig,
+) -> Result<Registration, RegisterError> {
+    prior.check()?;
+    let res = field.resolution_m();
+    let points = thin_points(points_robot, config.spacing_m.max(res));
+    let fallback = |mean_ll: f64, matched: usize| Registration {
+        pose: prior.mean,
+        covariance: prior.covariance(),
+        mean_log_likelihood: mean_ll,
+        points: points.len(),
+        matched,
+        accepted: false,
+        evaluated: 0,
+        rival: None,
+    };
+    if points.len() < config.min_matched || field.obstacle_points() == 0 {
+        return Ok(fallback(field.floor() as f64, 0));
+    }
+    let (lattice, _) = Lattice::around(prior, &points, res, config);
+    let anchored = Anchored::new(field, &points, prior.mean, res);
+    let (pose, information) = refine(&anchored, prior, res, lattice.theta_step);
+    let (sum, matched) = anchored.evaluate(&pose);
+    let mean_ll = sum / points.len() as f64;
+    let Some(covariance) = information.try_inverse().map(|c| 0.5 * (c + c.transpose())) else {
+        return Ok(fallback(mean_ll, matched));
+    };
+    if matched < config.min_matched {
+        return Ok(fallback(mean_ll, matched));
     }
     Ok(Registration {
         pose,
@@ -402,8 +518,8 @@ pub fn register(
         points: points.len(),
         matched,
         accepted: true,
-        evaluated,
-        rival,
+        evaluated: 0,
+        rival: None,
     })
 }
 
@@ -462,40 +578,6 @@ impl<'p> Lattice<'p> {
             .collect()
     }
 
-    /// The posterior of the poses a search kept: its best (the first of
-    /// equal scores in lattice order), covariance and rival peak.
-    fn posterior(
-        &self,
-        mut kept: Vec<KeptPose>,
-        config: &RegisterConfig,
-    ) -> (LatticeBest, Matrix3<f64>, Option<Rival>) {
-        // In lattice order, rotation by rotation, row by row: the order of
-        // the exhaustive search's sums.
-        kept.sort_by_key(|&(kt, k)| (kt, k.b, k.a));
-        let best = kept.iter().fold((f64::NEG_INFINITY, 0, 0, 0), |b, &(kt, k)| {
-            if k.score > b.0 {
-                (k.score, k.a, k.b, kt)
-            } else {
-                b
-            }
-        });
-        let posterior = kept.iter().map(|&(kt, k)| (k.score, self.pose(k.a, k.b, kt)));
-        let covariance = lattice_covariance(posterior, best.0, self.res, self.theta_step);
-        let steps = |apart: f64, step: f64| ((apart / step).ceil() as i64).max(1);
-        let apart = Apart {
-            a: steps(config.rival_apart_m, self.res),
-            kt: steps(config.rival_apart_rad, self.theta_step),
-        };
-        let rival = rival_peak(&kept, best, self.nx, self.ny, apart).map(|(kt, k)| {
-            let x = self.pose(k.a, k.b, kt);
-            Rival {
-                pose: Pose2::new(x[0], x[1], x[2]),
-                below_best_ln: best.0 - k.score,
-            }
-        });
-        (best, covariance, rival)
-    }
-
     /// The lattice pose `(a, b, kt)` as world `(x, y, θ)`.
     fn pose(&self, a: i64, b: i64, kt: i64) -> Vector3<f64> {
         let mean = self.prior.mean;
@@ -512,6 +594,28 @@ impl<'p> Lattice<'p> {
         self.prior.log_density_turned(self.turned, x[0], x[1], x[2])
     }
 
+    /// The score of lattice pose `(a, b)` of the rotation whose endpoint
+    /// cells are `cells`: the field's cells summed in the exhaustive
+    /// search's order with its arithmetic, plus the prior.
+    fn score(&self, field: &LikelihoodField, cells: &[(i64, i64)], a: i64, b: i64, kt: i64) -> f64 {
+        let mut sum = 0f32;
+        for &(i, j) in cells {
+            sum += field.cell(i + a, j + b);
+        }
+        sum as f64 + self.prior_at(a, b, kt)
+    }
+
+    /// How many lattice poses a Gaussian posterior of `covariance` holds
+    /// within [`NEGLIGIBLE_LN`] of its peak (the ellipsoid's volume in
+    /// lattice cells), at most the lattice's own count.
+    fn spread_poses(&self, covariance: &Matrix3<f64>, nt: i64) -> f64 {
+        let radius = (-2.0 * NEGLIGIBLE_LN).sqrt();
+        let volume =
+            4.0 / 3.0 * std::f64::consts::PI * radius.powi(3) * covariance.determinant().max(0.0).sqrt();
+        let all = ((2 * self.nx + 1) * (2 * self.ny + 1) * (2 * nt + 1)) as f64;
+        (volume / (self.res * self.res * self.theta_step)).min(all)
+    }
+
     /// The poses of rotation `kt` with their posterior scores (the field's
     /// `slab` plus the prior) and translation steps `(a, b)`, row-major in
     /// `b`.
@@ -525,144 +629,102 @@ impl<'p> Lattice<'p> {
             })
         })
     }
-}
 
-/// A lattice pose kept for the posterior, with its rotation step.
-type KeptPose = (i64, Kept);
-
-/// What a search of the lattice found.
-enum Found {
-    /// The poses whose posterior weight counts (unsorted), and the count
-    /// of poses and blocks scored.
-    Poses(Vec<KeptPose>, usize),
-    /// More than [`RegisterConfig::max_spread_poses`] poses count: the count scored so
-    /// far.
-    SpreadOut(usize),
-}
-
-/// Every lattice pose scored, one slab of sx·sy per rotation; kept are those
-/// whose posterior weight can count ([`NEGLIGIBLE_LN`] below the best at
-/// most), unsorted, and the count of poses scored.
-fn exhaustive(
-    field: &LikelihoodField,
-    lattice: &Lattice,
-    nt: i64,
-    cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
-    max_kept: usize,
-) -> Found {
-    let (nx, ny) = (lattice.nx, lattice.ny);
-    let slabs: Vec<(Vec<f32>, f64)> = (-nt..=nt)
-        .into_par_iter()
-        .map(|kt| {
-            let slab = lattice_slab(field, &cells_at(kt), nx, ny);
-            let best = lattice
-                .scores(&slab, kt)
-                .fold(f64::NEG_INFINITY, |b, (s, _)| b.max(s));
-            (slab, best)
-        })
-        .collect();
-    let best = slabs.iter().fold(f64::NEG_INFINITY, |b, s| b.max(s.1));
-    let evaluated = slabs.iter().map(|s| s.0.len()).sum();
-    let counts = |(slab, kt): (&(Vec<f32>, f64), i64)| {
-        lattice
-            .scores(&slab.0, kt)
-            .filter(|(score, _)| score - best >= NEGLIGIBLE_LN)
-            .count()
-    };
-    if slabs.iter().zip(-nt..=nt).map(counts).sum::<usize>() > max_kept {
-        return Found::SpreadOut(evaluated);
-    }
-    // The poses are kept in a second pass over the slabs, which a rotation
-    // whose best pose is negligible beside the best of all skips: storing
-    // all (32 bytes each) would take hundreds of megabytes on a wide
-    // search.
-    let kept = slabs
-        .iter()
-        .zip(-nt..=nt)
-        .filter(|((_, own), _)| own - best >= NEGLIGIBLE_LN)
-        .flat_map(|((slab, _), kt)| {
-            lattice
-                .scores(slab, kt)
-                .filter(|(score, _)| score - best >= NEGLIGIBLE_LN)
-                .map(move |(score, (a, b))| (kt, Kept { a, b, score }))
-        })
-        .collect();
-    Found::Poses(kept, evaluated)
-}
-
-/// The poses the exhaustive search keeps, found by branch and bound
-/// (the `bound` module): rotations searched from the prior's mean outwards
-/// (in parallel), sharing the best score found so far.
-fn bounded(
-    field: &LikelihoodField,
-    lattice: &Lattice,
-    nt: i64,
-    cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
-    max_kept: usize,
-) -> Found {
-    let best = SharedBest::new();
-    let nodes = AtomicUsize::new(0);
-    let block = Block {
-        nx: lattice.nx,
-        ny: lattice.ny,
-    };
-    // The cells every rotation's endpoints fall in, and those the search
-    // can reach from them: the pyramid's block. A rotation's cells are
-    // made again for its search rather than all held at once (a wide
-    // search turns through hundreds of rotations: tens of megabytes).
-    let empty = ((i64::MAX, i64::MAX), (i64::MIN, i64::MIN));
-    let (lo, hi) = (-nt..=nt)
-        .into_par_iter()
-        .map(|kt| {
-            cells_at(kt).iter().fold(empty, |(lo, hi), &(i, j)| {
-                ((lo.0.min(i), lo.1.min(j)), (hi.0.max(i), hi.1.max(j)))
+    /// Whether lattice pose `(kt, k)`, at least as good as every pose in
+    /// `better` (those scoring more, all at hand), is a local maximum: no
+    /// lattice neighbour scores higher. Its neighbours are scored afresh
+    /// where `better` does not settle them.
+    fn is_peak(
+        &self,
+        field: &LikelihoodField,
+        cells_at: &impl Fn(i64) -> Vec<(i64, i64)>,
+        nt: i64,
+        (kt, k): KeptPose,
+    ) -> bool {
+        (kt - 1..=kt + 1).filter(|t| t.abs() <= nt).all(|t| {
+            let cells = cells_at(t);
+            (-1..=1).all(|db: i64| {
+                (-1..=1).all(|da: i64| {
+                    let (a, b) = (k.a + da, k.b + db);
+                    let outside = a.abs() > self.nx || b.abs() > self.ny;
+                    outside || (t, a, b) == (kt, k.a, k.b) || self.score(field, &cells, a, b, t) <= k.score
+                })
             })
         })
-        .reduce(
-            || empty,
-            |(lo, hi), (l, h)| ((lo.0.min(l.0), lo.1.min(l.1)), (hi.0.max(h.0), hi.1.max(h.1))),
-        );
-    if lo.0 > hi.0 {
-        return Found::Poses(Vec::new(), 0);
     }
-    let side = (2 * block.nx.max(block.ny) + 1) as u64;
-    let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
-    // Only the part of that block a level's block can reach the field
-    // from: every other look-up is of cells beyond the field, at its floor
-    // (the pyramid answers the floor beyond its block). Far endpoints swept
-    // over the rotations span a far larger block than the field holds.
-    let (min, width, height, _) = field.raw();
-    let pad = (1i64 << top) - 1;
-    let lo = (
-        (lo.0 - block.nx).max(min.0 - pad),
-        (lo.1 - block.ny).max(min.1 - pad),
-    );
-    let hi = (
-        (hi.0 + block.nx).min(min.0 + width as i64 - 1).max(lo.0),
-        (hi.1 + block.ny).min(min.1 + height as i64 - 1).max(lo.1),
-    );
-    let pyramid = Pyramid::new(field, lo, hi, top);
-    let prior = lattice.prior;
-    let form = GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m);
-    let search = |kt: i64| -> Vec<KeptPose> {
-        let theta = prior.mean.theta + kt as f64 * lattice.theta_step;
-        let term = GaussianTerm {
-            exact: |a, b| lattice.prior_at(a, b, kt),
-            theta_term: GaussianTerm::theta_term(theta, prior.mean.theta, prior.sigma_theta_rad),
-            form,
-            res: lattice.res,
-        };
-        let cells = cells_at(kt);
-        search_rotation(&pyramid, &cells, &block, &term, &best, NEGLIGIBLE_LN, &nodes)
-            .into_iter()
-            .map(|k| (kt, k))
-            .collect()
-    };
+}
+
+/// A lattice pose kept by a search, with its rotation step.
+type KeptPose = (i64, Kept);
+
+/// The scores a search of the lattice holds after finding the best pose,
+/// for the rival's search.
+enum Scores<'f> {
+    /// Every rotation's slab (the exhaustive search).
+    Slabs(Vec<Vec<f32>>),
+    /// The pooled levels of the field (branch and bound).
+    Pyramid(Pyramid<'f>),
+}
+
+/// What the search for the best lattice pose found.
+struct Searched<'f> {
+    field: &'f LikelihoodField,
+    /// The best pose: the first in lattice order (rotation, row, column)
+    /// of the highest score.
+    best: LatticeBest,
+    scores: Scores<'f>,
+    /// Lattice poses and blocks scored.
+    evaluated: usize,
+}
+
+/// Every lattice pose scored, one slab of sx·sy per rotation; the best
+/// kept (`None`: an empty lattice).
+fn exhaustive<'f>(
+    field: &'f LikelihoodField,
+    lattice: &Lattice,
+    nt: i64,
+    cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
+) -> Option<Searched<'f>> {
+    let (nx, ny) = (lattice.nx, lattice.ny);
+    let slabs: Vec<Vec<f32>> = (-nt..=nt)
+        .into_par_iter()
+        .map(|kt| lattice_slab(field, &cells_at(kt), nx, ny))
+        .collect();
+    let mut best: Option<LatticeBest> = None;
+    for (slab, kt) in slabs.iter().zip(-nt..=nt) {
+        for (score, (a, b)) in lattice.scores(slab, kt) {
+            if best.is_none_or(|x| score > x.0) {
+                best = Some((score, a, b, kt));
+            }
+        }
+    }
+    let evaluated = slabs.iter().map(Vec::len).sum();
+    Some(Searched {
+        field,
+        best: best?,
+        scores: Scores::Slabs(slabs),
+        evaluated,
+    })
+}
+
+/// The best lattice pose, found by branch and bound (the `bound`
+/// module): rotations searched from the prior's mean outwards (in
+/// parallel), sharing the best score found so far; every block whose
+/// bound falls below it is dropped.
+fn bounded<'f>(
+    field: &'f LikelihoodField,
+    lattice: &Lattice,
+    nt: i64,
+    cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
+) -> Option<Searched<'f>> {
+    let best = SharedBest::new();
+    let nodes = AtomicUsize::new(0);
+    let pyramid = lattice.pyramid(field);
+    let search =
+        |kt: i64| -> Vec<KeptPose> { search_in(lattice, &pyramid, cells_at, kt, &best, 0.0, None, &nodes) };
     // The prior's mean first, which finds a good bound for all the rest;
-    // then outwards, a few rotations per thread at a time. A pose kept
-    // before the best was known may lie below its margin: those are
-    // dropped after each batch, and the search gives up once more poses
-    // than a trusted match spreads over still count.
+    // then outwards, a few rotations per thread at a time, dropping the
+    // poses overtaken after each batch.
     let mut kept = search(0);
     let order: Vec<i64> = (1..=nt).flat_map(|k| [k, -k]).collect();
     for batch in order.chunks(BATCH_ROTATIONS) {
@@ -673,103 +735,143 @@ fn bounded(
                 .collect::<Vec<_>>(),
         );
         let top = best.get();
-        kept.retain(|(_, k)| k.score - top >= NEGLIGIBLE_LN);
-        if kept.len() > max_kept {
-            return Found::SpreadOut(nodes.into_inner());
-        }
+        kept.retain(|(_, k)| k.score >= top);
     }
-    Found::Poses(kept, nodes.into_inner())
+    // The first in lattice order among equals, as the exhaustive search.
+    let &(kt, k) = kept.iter().min_by_key(|&&(kt, k)| (kt, k.b, k.a))?;
+    Some(Searched {
+        field,
+        best: (k.score, k.a, k.b, kt),
+        scores: Scores::Pyramid(pyramid),
+        evaluated: nodes.into_inner(),
+    })
+}
+
+/// One rotation's branch-and-bound search (see
+/// [`search_rotation`]): the poses found at least `margin_ln` below the
+/// best score (`best`, shared), `excluded` left out.
+#[allow(clippy::too_many_arguments)]
+fn search_in(
+    lattice: &Lattice,
+    pyramid: &Pyramid,
+    cells_at: &impl Fn(i64) -> Vec<(i64, i64)>,
+    kt: i64,
+    best: &SharedBest,
+    margin_ln: f64,
+    excluded: Option<Excluded>,
+    nodes: &AtomicUsize,
+) -> Vec<KeptPose> {
+    let prior = lattice.prior;
+    let theta = prior.mean.theta + kt as f64 * lattice.theta_step;
+    let term = GaussianTerm {
+        exact: |a, b| lattice.prior_at(a, b, kt),
+        theta_term: GaussianTerm::theta_term(theta, prior.mean.theta, prior.sigma_theta_rad),
+        form: GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m),
+        res: lattice.res,
+    };
+    let block = Block {
+        nx: lattice.nx,
+        ny: lattice.ny,
+    };
+    search_rotation(
+        pyramid,
+        &cells_at(kt),
+        &block,
+        &term,
+        best,
+        margin_ln,
+        excluded,
+        nodes,
+    )
+    .into_iter()
+    .map(|k| (kt, k))
+    .collect()
+}
+
+impl Lattice<'_> {
+    /// The field's pooled levels as this lattice's search looks them up:
+    /// from blocks as wide as the window, at most [`TOP_LEVEL`].
+    fn pyramid<'f>(&self, field: &'f LikelihoodField) -> Pyramid<'f> {
+        let side = (2 * self.nx.max(self.ny) + 1) as u64;
+        let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
+        Pyramid { field, top }
+    }
+}
+
+impl Searched<'_> {
+    /// The rival peak: the best local maximum of the lattice's scores
+    /// (no lattice neighbour scores higher) apart from the best pose
+    /// (beyond [`RegisterConfig::rival_apart_m`] along x or y or
+    /// [`RegisterConfig::rival_apart_rad`] in heading, never within one
+    /// step), within [`RegisterConfig::rival_gap_ln`] of the best; the
+    /// first in lattice order among equals. `Some(None)` where there is
+    /// none; `None` where more than [`RegisterConfig::max_spread_poses`]
+    /// poses apart score within the gap (a match that pins no pose).
+    fn rival(
+        &mut self,
+        lattice: &Lattice,
+        nt: i64,
+        cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
+        config: &RegisterConfig,
+    ) -> Option<Option<KeptPose>> {
+        let best = self.best;
+        let steps = |apart: f64, step: f64| ((apart / step).ceil() as i64).max(1);
+        let (apart_a, apart_kt) = (
+            steps(config.rival_apart_m, lattice.res),
+            steps(config.rival_apart_rad, lattice.theta_step),
+        );
+        let near = |kt: i64| {
+            ((kt - best.3).abs() <= apart_kt).then_some(Excluded {
+                a: (best.1 - apart_a, best.1 + apart_a),
+                b: (best.2 - apart_a, best.2 + apart_a),
+            })
+        };
+        let margin = -config.rival_gap_ln.max(0.0);
+        let mut candidates: Vec<KeptPose> = match &self.scores {
+            Scores::Slabs(slabs) => slabs
+                .iter()
+                .zip(-nt..=nt)
+                .flat_map(|(slab, kt)| {
+                    lattice
+                        .scores(slab, kt)
+                        .filter(move |&(score, (a, b))| {
+                            score - best.0 >= margin && !near(kt).is_some_and(|e| e.contains(a, b))
+                        })
+                        .map(move |(score, (a, b))| (kt, Kept { a, b, score }))
+                })
+                .collect(),
+            Scores::Pyramid(pyramid) => {
+                let shared = SharedBest::at(best.0);
+                let nodes = AtomicUsize::new(0);
+                let found = (-nt..=nt)
+                    .into_par_iter()
+                    .flat_map_iter(|kt| {
+                        search_in(lattice, pyramid, cells_at, kt, &shared, margin, near(kt), &nodes)
+                    })
+                    .collect();
+                self.evaluated += nodes.into_inner();
+                found
+            }
+        };
+        if candidates.len() > config.max_spread_poses {
+            return None;
+        }
+        // Best first, lattice order among equals: the first peak is the rival.
+        candidates.sort_by(|x, y| {
+            y.1.score
+                .total_cmp(&x.1.score)
+                .then((x.0, x.1.b, x.1.a).cmp(&(y.0, y.1.b, y.1.a)))
+        });
+        Some(
+            candidates
+                .into_iter()
+                .find(|&c| lattice.is_peak(self.field, cells_at, nt, c)),
+        )
+    }
 }
 
 /// Rotations searched in parallel between two checks of the poses kept.
 const BATCH_ROTATIONS: usize = 64;
-
-/// How far apart in lattice steps two poses are different answers: more
-/// than `a` translation steps along either axis, or more than `kt`
-/// rotation steps.
-#[derive(Debug, Clone, Copy)]
-struct Apart {
-    a: i64,
-    kt: i64,
-}
-
-impl Apart {
-    /// Whether lattice pose `(kt, a, b)` is the best pose's own answer.
-    fn near(&self, best: LatticeBest, kt: i64, a: i64, b: i64) -> bool {
-        (kt - best.3).abs() <= self.kt && (a - best.1).abs() <= self.a && (b - best.2).abs() <= self.a
-    }
-}
-
-/// The best local maximum of the kept poses' scores (no kept lattice
-/// neighbour scores higher) that is `apart` from the best pose; the
-/// first in lattice order among equals. `kept` is sorted in
-/// lattice order (rotation, then row, then column), every pose within the
-/// `nx × ny` translation steps of `lattice`.
-///
-/// Neighbours are looked up in dense slabs of three rotations at a time
-/// (a wide search keeps a million poses: a map of them all would cost
-/// tens of megabytes).
-fn rival_peak(kept: &[KeptPose], best: LatticeBest, nx: i64, ny: i64, apart: Apart) -> Option<KeptPose> {
-    let (sx, sy) = ((2 * nx + 1) as usize, (2 * ny + 1) as usize);
-    let near = |kt: i64, a: i64, b: i64| apart.near(best, kt, a, b);
-    // Each rotation's run of `kept`.
-    let mut runs: Vec<(i64, std::ops::Range<usize>)> = Vec::new();
-    for (i, &(kt, _)) in kept.iter().enumerate() {
-        match runs.last_mut() {
-            Some((t, r)) if *t == kt => r.end = i + 1,
-            _ => runs.push((kt, i..i + 1)),
-        }
-    }
-    // Slab `kt mod 3` holds run `held[kt mod 3]`'s scores (the floor of
-    // the scores elsewhere): a rotation's two neighbours are in the others.
-    let mut slabs = [(); 3].map(|()| vec![f64::NEG_INFINITY; sx * sy]);
-    let mut held: [Option<usize>; 3] = [None; 3];
-    let at = |a: i64, b: i64| (b + ny) as usize * sx + (a + nx) as usize;
-    let mut rival: Option<KeptPose> = None;
-    for (n, (kt, run)) in runs.iter().enumerate() {
-        let kt = *kt;
-        let wanted = [n.checked_sub(1), Some(n), Some(n + 1)]
-            .map(|m| m.filter(|&m| runs.get(m).is_some_and(|r| (r.0 - kt).abs() <= 1)));
-        for m in wanted.into_iter().flatten() {
-            let slot = runs[m].0.rem_euclid(3) as usize;
-            if held[slot] != Some(m) {
-                if let Some(old) = held[slot] {
-                    for &(_, k) in &kept[runs[old].1.clone()] {
-                        slabs[slot][at(k.a, k.b)] = f64::NEG_INFINITY;
-                    }
-                }
-                for &(_, k) in &kept[runs[m].1.clone()] {
-                    slabs[slot][at(k.a, k.b)] = k.score;
-                }
-                held[slot] = Some(m);
-            }
-        }
-        // The slabs of rotations kt − 1, kt, kt + 1 that hold kept poses.
-        let neighbours: Vec<&Vec<f64>> = (kt - 1..=kt + 1)
-            .filter_map(|t| {
-                let slot = t.rem_euclid(3) as usize;
-                held[slot].filter(|&m| runs[m].0 == t).map(|_| &slabs[slot])
-            })
-            .collect();
-        for &(_, k) in &kept[run.clone()] {
-            if near(kt, k.a, k.b) || rival.is_some_and(|r| r.1.score >= k.score) {
-                continue;
-            }
-            let peak = neighbours.iter().all(|slab| {
-                (-1..=1).all(|db: i64| {
-                    (-1..=1).all(|da: i64| {
-                        let (a, b) = (k.a + da, k.b + db);
-                        a < -nx || a > nx || b < -ny || b > ny || slab[at(a, b)] <= k.score
-                    })
-                })
-            });
-            if peak {
-                rival = Some((kt, k));
-            }
-        }
-    }
-    rival
-}
 
 /// The summed field value of the endpoint cells `cells` translated by every
 /// `(a, b)` in `[-nx, nx] × [-ny, ny]` cells, row-major in `b`.
@@ -805,50 +907,11 @@ fn lattice_slab(field: &LikelihoodField, cells: &[(i64, i64)], nx: i64, ny: i64)
     slab
 }
 
-/// The smallest posterior weight `exp(score − best)` a lattice pose adds
-/// to the covariance with.
-const NEGLIGIBLE: f64 = 1e-9;
-
-/// A log weight below which a pose's weight is below [`NEGLIGIBLE`] with
-/// room to spare (`e⁻²¹·⁷² ≈ 3.7·10⁻¹⁰`): such poses are skipped without
-/// their `exp`, which leaves the sums exactly as they were.
+/// `ln 10⁻⁹` with room to spare (`e⁻²¹·⁷² ≈ 3.7·10⁻¹⁰`): poses whose
+/// posterior weight is below this share of the best's count for nothing;
+/// a posterior spread over more than [`RegisterConfig::max_spread_poses`]
+/// poses above it is not trusted.
 const NEGLIGIBLE_LN: f64 = -21.72;
-
-/// The covariance of the lattice's posterior `exp(score − best)`, with the
-/// lattice's own quantisation (a uniform cell) added so that a sharp peak
-/// still has a honest, non-zero spread.
-fn lattice_covariance(
-    posterior: impl IntoIterator<Item = (f64, Vector3<f64>)>,
-    best: f64,
-    res: f64,
-    theta_step: f64,
-) -> Matrix3<f64> {
-    let mut w_sum = 0.0;
-    let mut mean = Vector3::zeros();
-    let mut second = Matrix3::zeros();
-    for (score, x) in posterior {
-        // (Far below the best, no `exp` is needed to know.)
-        if score - best < NEGLIGIBLE_LN {
-            continue;
-        }
-        let w = (score - best).exp();
-        if w < NEGLIGIBLE {
-            continue;
-        }
-        w_sum += w;
-        mean += w * x;
-        second += w * x * x.transpose();
-    }
-    mean /= w_sum;
-    let cov = second / w_sum - mean * mean.transpose();
-    let quant = Matrix3::from_diagonal(&Vector3::new(
-        res * res / 12.0,
-        res * res / 12.0,
-        theta_step * theta_step / 12.0,
-    ));
-    // Symmetrised against rounding.
-    0.5 * (cov + cov.transpose()) + quant
-}
 
 /// The endpoints of a refinement with their obstacle neighbourhoods about
 /// the pose it starts from, so that each exact value near the start scans
@@ -858,6 +921,19 @@ struct Anchored<'a> {
     points: &'a [Point2],
     start: Pose2,
     near: Neighbourhood,
+}
+
+/// The score of a pose with its gradient and curvature in world
+/// `(x, y, θ)`.
+struct Curved {
+    score: f64,
+    gradient: Vector3<f64>,
+    /// The exact Hessian (the nearest obstacles held).
+    hessian: Matrix3<f64>,
+    /// Its Gauss-Newton part (negative definite or zero): without the
+    /// terms by which a point beyond `σ` of its wall bends upward, and
+    /// without the heading's second derivative.
+    gauss_newton: Matrix3<f64>,
 }
 
 impl<'a> Anchored<'a> {
@@ -872,6 +948,15 @@ impl<'a> Anchored<'a> {
         }
     }
 
+    /// Whether endpoint `p` at `pose` lies within the neighbourhood's reach
+    /// of its start: it moves by at most the translation plus `|p|` times
+    /// the turn.
+    fn within(&self, pose: &Pose2, p: &Point2) -> bool {
+        let shift = pose.translation().distance(self.start.translation());
+        let turn = wrap_angle(pose.theta - self.start.theta).abs();
+        shift + p.norm() * turn <= self.near.reach_m
+    }
+
     /// Sum of the exact field over the endpoints at `pose`, and how many
     /// lie within two σ of a mapped obstacle.
     fn evaluate(&self, pose: &Pose2) -> (f64, usize) {
@@ -879,15 +964,11 @@ impl<'a> Anchored<'a> {
         // ln(ε + (1−ε)·e⁻²) expressed through the floor: ε = e^floor.
         let eps = floor.exp();
         let near = (eps + (1.0 - eps) * (-2.0f64).exp()).ln();
-        // An endpoint `p` moves from its start by at most the translation
-        // plus `|p|` times the turn.
-        let shift = pose.translation().distance(self.start.translation());
-        let turn = wrap_angle(pose.theta - self.start.theta).abs();
         let mut sum = 0.0;
         let mut matched = 0;
         for (k, p) in self.points.iter().enumerate() {
             let q = pose.transform_point(*p);
-            let v = if shift + p.norm() * turn <= self.near.reach_m {
+            let v = if self.within(pose, p) {
                 self.field.exact_near(&self.near, k, q)
             } else {
                 self.field.exact(q)
@@ -897,51 +978,136 @@ impl<'a> Anchored<'a> {
         }
         (sum, matched)
     }
+
+    /// The exact field summed over the endpoints at `pose`, with its
+    /// derivatives (see [`Slope`](crate::field::Slope)): for an endpoint
+    /// `q = R(θ)p + t`, `∂q/∂(x, y, θ) = [I | (−(q − t)_y, (q − t)_x)]` and
+    /// `∂²q/∂θ² = −(q − t)`. With `surfaces`, an endpoint whose nearest
+    /// obstacle lies on a line of them (see
+    /// [`LikelihoodField::surface_normal`]) is held by that line alone:
+    /// its derivatives are those of the Gaussian in its distance to the
+    /// line, so that a wall sampled point by point does not claim to pin
+    /// a slide along it.
+    fn curved(&self, pose: &Pose2, surfaces: bool) -> Curved {
+        let s2 = self.field.sigma2();
+        let radius = 2.0 * s2.sqrt().max(self.field.resolution_m());
+        let mut buffer = Vec::new();
+        let mut c = Curved {
+            score: 0.0,
+            gradient: Vector3::zeros(),
+            hessian: Matrix3::zeros(),
+            gauss_newton: Matrix3::zeros(),
+        };
+        for (k, p) in self.points.iter().enumerate() {
+            let q = pose.transform_point(*p);
+            let slope = self.field.slope(&self.near, k, q, self.within(pose, p));
+            c.score += slope.value;
+            if slope.share == 0.0 {
+                continue;
+            }
+            let r = nalgebra::Vector2::new(slope.offset[0], slope.offset[1]);
+            let o = [q.x - r.x, q.y - r.y];
+            let normal = surfaces
+                .then(|| self.field.surface_normal(o, radius, &mut buffer))
+                .flatten();
+            // The offset the Gaussian sees, its share and the directions
+            // it holds.
+            let (r, w, held) = match normal {
+                Some([nx, ny]) => {
+                    let n = nalgebra::Vector2::new(nx, ny);
+                    let r = n * r.dot(&n);
+                    (r, self.field.share_at(q, r.norm_squared()), n * n.transpose())
+                }
+                None => (r, slope.share, nalgebra::Matrix2::identity()),
+            };
+            let (ux, uy) = (q.x - pose.x, q.y - pose.y);
+            let j = nalgebra::Matrix2x3::new(1.0, 0.0, -uy, 0.0, 1.0, ux);
+            let grad_q = -w / s2 * r;
+            let flat = held * (-w / s2);
+            let bend = r * r.transpose() * (w * (1.0 - w) / (s2 * s2));
+            let jt = j.transpose();
+            c.gradient += jt * grad_q;
+            let gn = jt * flat * j;
+            c.gauss_newton += gn;
+            c.hessian += gn + jt * bend * j;
+            c.hessian[(2, 2)] -= grad_q.dot(&nalgebra::Vector2::new(ux, uy));
+        }
+        c
+    }
 }
 
-/// Pattern search on the exact score plus prior, from `start`,
-/// with steps halving from half a lattice step to 1/16 of it.
-fn refine(anchored: &Anchored, prior: &PosePrior, res: f64, theta_step: f64) -> Pose2 {
-    // A third of the candidates are poses scored before (the same bits,
-    // reached again after a move): each is scored once.
-    let mut scored = std::collections::HashMap::new();
-    let mut score = |p: &Pose2| {
-        *scored
-            .entry((p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()))
-            .or_insert_with(|| anchored.evaluate(p).0 + prior.log_density(p.x, p.y, p.theta))
+/// Gauss-Newton ascent of the exact score plus prior from the anchored
+/// start, each step at most half a lattice step (halved until it gains),
+/// until a step moves the pose by less than [`REFINED`] of one; the pose and
+/// the score's curvature there, each endpoint held by the surface its
+/// nearest obstacle lies on (its negated Hessian: the information of
+/// Laplace's approximation; the Gauss-Newton curvature where the exact one
+/// is not positive definite).
+fn refine(anchored: &Anchored, prior: &PosePrior, res: f64, theta_step: f64) -> (Pose2, Matrix3<f64>) {
+    // The prior's information (its covariance is positive definite: `check`).
+    let prior_info = prior.covariance().try_inverse().unwrap_or_else(Matrix3::zeros);
+    let off = |p: &Pose2| {
+        Vector3::new(
+            p.x - prior.mean.x,
+            p.y - prior.mean.y,
+            wrap_angle(p.theta - prior.mean.theta),
+        )
+    };
+    let curved = |p: &Pose2, surfaces: bool| {
+        let mut c = anchored.curved(p, surfaces);
+        c.score += prior.log_density(p.x, p.y, p.theta);
+        c.gradient -= prior_info * off(p);
+        c.hessian -= prior_info;
+        c.gauss_newton -= prior_info;
+        c
     };
     let mut pose = anchored.start;
-    let mut best = score(&pose);
-    let (mut step_xy, mut step_t) = (0.5 * res, 0.5 * theta_step);
-    while step_xy >= res / 16.0 {
-        let mut moved = false;
-        for dt in [-1.0, 0.0, 1.0] {
-            for dy in [-1.0, 0.0, 1.0] {
-                for dx in [-1.0, 0.0, 1.0] {
-                    if dx == 0.0 && dy == 0.0 && dt == 0.0 {
-                        continue;
-                    }
-                    let cand = Pose2::new(
-                        pose.x + dx * step_xy,
-                        pose.y + dy * step_xy,
-                        pose.theta + dt * step_t,
-                    );
-                    let s = score(&cand);
-                    if s > best {
-                        best = s;
-                        pose = cand;
-                        moved = true;
-                    }
-                }
+    let mut c = curved(&pose, false);
+    for _ in 0..MAX_REFINE_STEPS {
+        let Some(step) = (-c.gauss_newton).cholesky().map(|l| l.solve(&c.gradient)) else {
+            break;
+        };
+        // Within half a lattice step.
+        let scale = (0.5 * res / step.xy().norm().max(1e-300))
+            .min(0.5 * theta_step / step.z.abs().max(1e-300))
+            .min(1.0);
+        let step = scale * step;
+        let mut t = 1.0;
+        let mut moved = None;
+        for _ in 0..8 {
+            let cand = Pose2::new(pose.x + t * step.x, pose.y + t * step.y, pose.theta + t * step.z);
+            let at = curved(&cand, false);
+            if at.score > c.score {
+                moved = Some((cand, at));
+                break;
             }
+            t *= 0.5;
         }
-        if !moved {
-            step_xy *= 0.5;
-            step_t *= 0.5;
+        let Some((cand, at)) = moved else { break };
+        (pose, c) = (cand, at);
+        if t * step.xy().norm() < res * REFINED && t * step.z.abs() < theta_step * REFINED {
+            break;
         }
     }
-    pose
+    let c = curved(&pose, true);
+    let exact = -c.hessian;
+    let exact = 0.5 * (exact + exact.transpose());
+    let information = if exact.cholesky().is_some() {
+        exact
+    } else {
+        -c.gauss_newton
+    };
+    (pose, information)
 }
+
+/// A refinement stops after a step shorter than this share of a lattice
+/// step (a tenth of a millimetre on a 5 cm lattice).
+const REFINED: f64 = 2e-3;
+
+/// Gauss-Newton steps a refinement takes at most.
+const MAX_REFINE_STEPS: usize = 20;
+
+mod posterior;
 
 #[cfg(test)]
 mod tests;

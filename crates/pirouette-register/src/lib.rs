@@ -30,9 +30,10 @@ mod correlative;
 mod field;
 
 pub use correlative::{
-    register, thin_points, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search, Window,
+    refine_from_prior, register, thin_points, Covariance, MotionNoise, PosePrior, RegisterConfig,
+    Registration, Rival, Search, Window,
 };
-pub use field::LikelihoodField;
+pub use field::{LikelihoodField, CUTOFF_SIGMAS};
 
 use pirouette_geom::Point2;
 use pirouette_profile::Rop;

@@ -44,45 +44,10 @@ fn seen_from(world: &[Point2], pose: &Pose2, max_range: f64, noise_m: f64, seed:
         .collect()
 }
 
-/// The posterior's covariance skips poses far below the best without
-/// their `exp`, and the result is exactly that of the poses the
-/// definition keeps (weight at least [`NEGLIGIBLE`]) alone, in order.
-#[test]
-fn skipping_negligible_poses_leaves_the_covariance_exact() {
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let poses: Vec<(f64, Vector3<f64>)> = (0..4000)
-        .map(|_| {
-            // Log weights from 0 down to −40 below the best: about
-            // half skipped unseen, a few weighed and dropped, the rest
-            // kept.
-            let score = 3.0 - rng.random_range(0.0..40.0f64);
-            let x = Vector3::new(
-                rng.random_range(-0.1..0.1),
-                rng.random_range(-0.1..0.1),
-                rng.random_range(-0.2..0.2),
-            );
-            (score, x)
-        })
-        .collect();
-    let best = poses.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-    let kept: Vec<(f64, Vector3<f64>)> = poses
-        .iter()
-        .copied()
-        .filter(|(score, _)| (score - best).exp() >= NEGLIGIBLE)
-        .collect();
-    let unseen = poses.iter().filter(|p| p.0 - best < NEGLIGIBLE_LN).count();
-    assert!(unseen > 1000 && kept.len() > 1000 && unseen + kept.len() < poses.len());
-    let (res, step) = (0.01, 0.004);
-    assert_eq!(
-        lattice_covariance(poses.iter().copied(), best, res, step),
-        lattice_covariance(kept, best, res, step)
-    );
-}
-
 /// Random walls and posts, seen from a random pose with noise, and a
 /// prior off the truth by up to its own spread: the branch-and-bound
 /// search finds the exhaustive search's best pose, covariance and rival
-/// to the bit, scoring fewer poses.
+/// to the bit, scoring a fraction of the poses.
 #[test]
 fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -153,7 +118,9 @@ fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
     }
     assert!(cases >= 20, "{cases} cases searched");
     assert!(rivals >= 1, "no case had a rival peak");
-    assert!(scored * 10 < all, "{scored} of {all} poses scored");
+    // (The field's pooled levels bound aligned blocks, up to twice as wide
+    // as a search's block, and the rival is sought 10 nats down: an eighth.)
+    assert!(scored * 5 < all, "{scored} of {all} poses scored");
 }
 
 #[test]
@@ -282,76 +249,85 @@ fn thinning_keeps_one_point_per_cell() {
     assert_eq!(thin_points(&pts, 0.01), vec![pts[0], pts[2]]);
 }
 
-/// The rival peak by a map of every kept pose: the definition, for
-/// [`rival_peak`]'s slabs to be checked against.
-fn rival_peak_by_map(kept: &[KeptPose], best: LatticeBest, apart: (i64, i64)) -> Option<KeptPose> {
-    let score: std::collections::HashMap<(i64, i64, i64), f64> =
-        kept.iter().map(|&(kt, k)| ((kt, k.a, k.b), k.score)).collect();
-    let (ra, rt) = apart;
-    let near = |kt: i64, a: i64, b: i64| {
-        (kt - best.3).abs() <= rt && (a - best.1).abs() <= ra && (b - best.2).abs() <= ra
-    };
-    let peak = |kt: i64, k: &Kept| {
-        (-1..=1).all(|dt| {
-            (-1..=1).all(|da| {
-                (-1..=1).all(|db| {
-                    score
-                        .get(&(kt + dt, k.a + da, k.b + db))
-                        .is_none_or(|&s| s <= k.score)
-                })
-            })
-        })
-    };
-    kept.iter()
-        .copied()
-        .filter(|&(kt, k)| !near(kt, k.a, k.b) && peak(kt, &k))
-        .fold(None, |r: Option<KeptPose>, c| match r {
-            Some(r) if r.1.score >= c.1.score => Some(r),
-            _ => Some(c),
-        })
-}
-
+/// Laplace's covariance at the refined pose is the spread of the exact
+/// posterior about it: weighed on a fine grid of poses (the exact field's
+/// score plus the prior, exponentiated), the room's posterior has the
+/// variances the curvature gives, to within a fifth.
 #[test]
-fn rival_peak_is_the_best_local_maximum_away_from_the_best() {
-    let mut rng = ChaCha8Rng::seed_from_u64(17);
-    let (mut found, mut none) = (0, 0);
-    for case in 0..400 {
-        let (nx, ny) = (rng.random_range(0..6i64), rng.random_range(0..6i64));
-        let nt = rng.random_range(0..5i64);
-        // Random subsets of the lattice with few distinct scores (ties).
-        let density = rng.random_range(0.05..1.0);
-        let mut kept: Vec<KeptPose> = Vec::new();
-        for kt in -nt..=nt {
-            for b in -ny..=ny {
-                for a in -nx..=nx {
-                    if rng.random_bool(density) {
-                        let score = f64::from(rng.random_range(0..8u8));
-                        kept.push((kt, Kept { a, b, score }));
-                    }
-                }
+fn laplace_is_the_spread_of_the_exact_posterior() {
+    let world = room();
+    let field = field_of(&world);
+    let truth = Pose2::new(0.9, 0.55, 0.4);
+    let seen = seen_from(&world, &truth, 2.0, 1e-6, 1);
+    let prior = PosePrior {
+        mean: truth * Pose2::new(0.004, -0.003, 0.003),
+        sigma_forward_m: 0.02,
+        sigma_left_m: 0.02,
+        sigma_theta_rad: 0.02,
+    };
+    let config = RegisterConfig {
+        covariance: Covariance::Laplace,
+        ..RegisterConfig::default()
+    };
+    let res = field.resolution_m();
+    let points = thin_points(&seen, config.spacing_m.max(res));
+    let (lattice, _) = Lattice::around(&prior, &points, res, &config);
+    let anchored = Anchored::new(&field, &points, prior.mean, res);
+    let (pose, information) = refine(&anchored, &prior, res, lattice.theta_step);
+    let laplace = information.try_inverse().unwrap();
+    // The exact posterior on a grid of ±4σ, 17 steps a side.
+    let sd = |k: usize| laplace[(k, k)].sqrt();
+    let n = 8i64;
+    let step = [
+        4.0 * sd(0) / n as f64,
+        4.0 * sd(1) / n as f64,
+        4.0 * sd(2) / n as f64,
+    ];
+    let mut samples = Vec::new();
+    for i in -n..=n {
+        for j in -n..=n {
+            for k in -n..=n {
+                let d = Vector3::new(i as f64 * step[0], j as f64 * step[1], k as f64 * step[2]);
+                let p = Pose2::new(pose.x + d.x, pose.y + d.y, pose.theta + d.z);
+                let score = anchored.evaluate(&p).0 + prior.log_density(p.x, p.y, p.theta);
+                samples.push((score, d));
             }
         }
-        let Some(&(bt, bk)) = kept.iter().max_by(|x, y| x.1.score.total_cmp(&y.1.score)) else {
-            continue;
-        };
-        let best = (bk.score, bk.a, bk.b, bt);
-        // Apart by a step (any peak beyond the best's neighbours), or more.
-        let (ra, rt) = (rng.random_range(1..4i64), rng.random_range(1..3i64));
-        let expected = rival_peak_by_map(&kept, best, (ra, rt));
-        let got = rival_peak(&kept, best, nx, ny, Apart { a: ra, kt: rt });
-        assert_eq!(
-            got.map(|(t, k)| (t, k.a, k.b, k.score)),
-            expected.map(|(t, k)| (t, k.a, k.b, k.score)),
-            "case {case}"
-        );
-        if expected.is_some() {
-            found += 1;
-        } else {
-            none += 1;
-        }
     }
-    assert!(
-        found > 100 && none > 10,
-        "{found} cases with a rival, {none} without"
-    );
+    let top = samples.iter().map(|s| s.0).fold(f64::NEG_INFINITY, f64::max);
+    let (mut w_sum, mut mean, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
+    for (score, d) in &samples {
+        let w = (score - top).exp();
+        w_sum += w;
+        mean += w * d;
+        second += w * d * d.transpose();
+    }
+    mean /= w_sum;
+    let exact = second / w_sum - mean * mean.transpose();
+    for k in 0..3 {
+        let ratio = exact[(k, k)] / laplace[(k, k)];
+        assert!(
+            (0.8..1.25).contains(&ratio),
+            "axis {k}: exact {exact} against Laplace {laplace}"
+        );
+    }
+    // And the refined pose is the posterior's peak to within a step of
+    // the grid, a third of its spread (the exact field of points sampled
+    // every 2 mm has kinks where the nearest point changes, at which the
+    // Gauss-Newton steps stop).
+    let (_, at) = samples
+        .iter()
+        .fold((f64::NEG_INFINITY, Vector3::zeros()), |b, s| {
+            if s.0 > b.0 {
+                (s.0, s.1)
+            } else {
+                b
+            }
+        });
+    for k in 0..3 {
+        assert!(
+            at[k].abs() <= step[k] * 1.001,
+            "axis {k}: the grid's best {at} off the pose"
+        );
+    }
 }
