@@ -507,14 +507,17 @@ fn shared_intel_log_maps_as_measured() {
     let rel_dead = relative_errors(&dead, &reference, 1.0);
     let ate = aligned_ate(&est, &reference);
     eprintln!("intel: RPE 1 m {rel:?}, ATE {ate} m");
-    // The figures measured at ade64b8 (RPE 3.56 cm and 0.550°, ATE 6.3 cm;
-    // dead reckoning's 12 cm, 5.6° and 24 m) and a margin of a few per
-    // cent for the floating point of other machines.
+    // The figures measured with the submaps and Laplace's covariance (RPE
+    // 3.62 cm and 0.584°, ATE 6.65 cm; before them 3.56 cm, 0.550° and
+    // 6.3 cm, while the benchmark's relations on intel.bag went from 1.90
+    // to 1.80 cm and 0.335 to 0.322°; dead reckoning's 12 cm, 5.6° and
+    // 24 m) and a margin of a few per cent for the floating point of other
+    // machines.
     assert!(
-        rel.translation_mean_m < 0.037 && rel.rotation_mean_deg < 0.58,
+        rel.translation_mean_m < 0.0375 && rel.rotation_mean_deg < 0.61,
         "{rel:?}"
     );
-    assert!(ate < 0.066, "ATE {ate}");
+    assert!(ate < 0.07, "ATE {ate}");
     assert!(rel_dead.translation_mean_m > 2.0 * rel.translation_mean_m);
     assert!(reg.loops.iter().filter(|l| l.kept).count() > 50);
 }

@@ -15,6 +15,8 @@
 //!   local submap, revisits closed as loops, the grid of the graph's poses
 //!   ([`laser::map_log`]).
 //! - [`localise`]: place queries against an index of sweeps.
+//! - [`submap`]: obstacle points and their field in the frame of an
+//!   anchor pose that the graph moves.
 //!
 //! ```no_run
 //! use pirouette_io::BagOptions;
@@ -37,6 +39,7 @@ pub mod localise;
 pub mod mapping;
 pub mod pipeline;
 pub mod revisit;
+pub mod submap;
 
 /// The sensor whose input a path holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -73,6 +73,7 @@ impl RevisitTest {
             max_window_m: window_m,
             rival_apart_m: self.rival_apart_m,
             rival_apart_rad: self.rival_apart_rad,
+            rival_gap_ln: self.min_rival_gap_ln,
             ..config.clone()
         };
         let reg = register(field, points, prior, &config)?;

@@ -2,7 +2,7 @@
 
 use pirouette_geom::Pose2;
 use pirouette_grid::{GridConfig, OccupancyGrid};
-use pirouette_register::RegisterConfig;
+use pirouette_register::{Covariance, RegisterConfig};
 
 use crate::error::{Result, SlamError};
 use crate::revisit::RevisitTest;
@@ -54,9 +54,12 @@ pub struct LaserConfig {
     pub grid: GridConfig,
     /// Side of the local map's likelihood lattice, metres.
     pub field_resolution_m: f64,
-    /// Registration of a scan against the local map.
+    /// Registration of a scan against the local map (Laplace's covariance:
+    /// see [`pirouette_register::Covariance`]).
     pub register: RegisterConfig,
-    /// The local map holds the endpoints of this many scans before.
+    /// The local map (a submap) holds the endpoints of this many scans
+    /// before at least, and twice as many at most: a new submap is begun
+    /// every this many scans.
     pub local_scans: usize,
     /// Raw odometry as a prior.
     pub odometry: OdometryNoise,
@@ -196,7 +199,8 @@ impl Default for LaserConfig {
     /// measure to a few centimetres that far); 5 cm cells for the grid and
     /// the local map; registration with a 5 cm Gaussian (the local map's
     /// cell), endpoints thinned to one per 5 cm, a window of at most
-    /// ±2.5 m; the last 30 scans as the local map; a step without odometry
+    /// ±2.5 m, Laplace's covariance; a local map of the last 30 to 60
+    /// scans; a step without odometry
     /// searched as a stand of ±3σ of 0.8 m and 25° (a metre and more
     /// apart, turns to about 60°), a turn in place within 25 cm (σ), and
     /// a repeat of the last step (or a drive on after a turn) off by 20 %
@@ -214,6 +218,7 @@ impl Default for LaserConfig {
             register: RegisterConfig {
                 sigma_m: 0.05,
                 spacing_m: 0.05,
+                covariance: Covariance::Laplace,
                 max_window_m: 2.5,
                 min_matched: 20,
                 ..RegisterConfig::default()

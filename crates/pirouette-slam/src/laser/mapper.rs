@@ -7,13 +7,13 @@ use super::revisits::{Keyframes, Track};
 use super::run::{LoopClosure, RegisteredLog, ScanPose, SkippedScan};
 use crate::frame::Frame;
 use crate::mapping::graph::{information, Edge as MeasuredEdge, EDGE_GATE};
+use crate::submap::Submap;
 use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::{Point2, Pose2};
 use pirouette_graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig};
 use pirouette_io::LaserScan;
 use pirouette_register::{
-    endpoints, far_points, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, RegisterError,
-    Registration,
+    endpoints, far_points, thin_points, PosePrior, RegisterConfig, RegisterError, Registration,
 };
 
 use crate::error::{Result, SlamError};
@@ -54,9 +54,21 @@ pub(super) struct Mapper<'c> {
     newest: Pose2,
     /// The steps matched so far, for steps without odometry.
     motion: MotionSoFar,
-    /// The local map's likelihood field while the scans and poses it was
-    /// made of stand (a scan registered or a graph solved drops it).
-    field: Option<LikelihoodField>,
+    /// The local map: one or two active submaps, each anchored at a scan;
+    /// scans are matched against the older, which holds from
+    /// `local_scans` to twice as many scans (fewer after a step not
+    /// registered, which begins them anew). A solve of the graph makes
+    /// them anew at the poses solved.
+    active: VecDeque<Active>,
+}
+
+/// An active submap and the scan it is anchored at.
+struct Active {
+    submap: Submap,
+    /// The scan it is anchored at.
+    first: usize,
+    /// The first scan it holds (it holds every one registered since).
+    from: usize,
 }
 
 /// A scan's match against the local map.
@@ -126,7 +138,7 @@ impl<'c> Mapper<'c> {
             placed: Vec::new(),
             newest: Pose2::IDENTITY,
             motion: MotionSoFar::default(),
-            field: None,
+            active: VecDeque::new(),
         })
     }
 
@@ -140,13 +152,16 @@ impl<'c> Mapper<'c> {
         let last = self.poses.len() - 1;
         let odometry = frame.odometry();
         let previous = self.poses[last] * self.newest;
-        let field = match self.field.take() {
-            Some(field) => field,
-            None => self.field((last + 1).saturating_sub(config.local_scans)..last + 1),
+        let Some(local) = self.active.front() else {
+            return Err(SlamError::Input {
+                problem: "a scan matched before any was registered".into(),
+            }
+            .at(label()));
         };
+        let submap = &local.submap;
         let reg = match &odometry {
-            Some(step) => self.with_odometry(&field, &points, &previous, step),
-            None => self.blind(&field, &points, &previous),
+            Some(step) => self.with_odometry(submap, &points, &previous, step),
+            None => self.blind(submap, &points, &previous),
         };
         let step = reg
             .as_ref()
@@ -154,7 +169,6 @@ impl<'c> Mapper<'c> {
             .filter(|r| r.0.accepted)
             .map(|r| previous.between(&r.0.pose));
         self.motion = self.motion.after(step, config);
-        self.field = Some(field);
         let (registration, ambiguous) = reg.map_err(|e| SlamError::from(e).at(label()))?;
         Ok(Matched {
             points,
@@ -170,6 +184,7 @@ impl<'c> Mapper<'c> {
         RegisterConfig {
             rival_apart_m: t.rival_apart_m,
             rival_apart_rad: t.rival_apart_rad,
+            rival_gap_ln: t.min_rival_gap_ln,
             ..self.config.register.clone()
         }
     }
@@ -199,7 +214,7 @@ impl<'c> Mapper<'c> {
     /// odometry's pose stands there).
     fn with_odometry(
         &self,
-        field: &LikelihoodField,
+        submap: &Submap,
         points: &[Point2],
         previous: &Pose2,
         step: &Pose2,
@@ -207,17 +222,26 @@ impl<'c> Mapper<'c> {
         let config = self.config;
         let register_config = self.step_register();
         let prior = moved_by(previous, step, &config.odometry);
-        let reg = register(field, points, &prior, &register_config)?;
+        let reg = submap.register(points, &prior, &register_config)?;
         let cell = config.field_resolution_m;
-        if reg.accepted && at_window_edge(&prior, &reg.pose, &config.register, cell) {
+        // The window's edge in the submap's frame, where it was searched.
+        let on_edge = |prior: &PosePrior, pose: &Pose2| {
+            at_window_edge(
+                &submap.local_prior(prior),
+                &submap.local_pose(pose),
+                &config.register,
+                cell,
+            )
+        };
+        if reg.accepted && on_edge(&prior, &reg.pose) {
             let wide = PosePrior {
                 sigma_forward_m: 3.0 * prior.sigma_forward_m,
                 sigma_left_m: 3.0 * prior.sigma_left_m,
                 sigma_theta_rad: 3.0 * prior.sigma_theta_rad,
                 ..prior
             };
-            let again = register(field, points, &wide, &register_config)?;
-            if again.accepted && !at_window_edge(&wide, &again.pose, &config.register, cell) {
+            let again = submap.register(points, &wide, &register_config)?;
+            if again.accepted && !on_edge(&wide, &again.pose) {
                 let ambiguous = self.pins_no_pose(&again);
                 return Ok((again, ambiguous));
             }
@@ -242,7 +266,7 @@ impl<'c> Mapper<'c> {
     /// of its own.
     fn blind(
         &self,
-        field: &LikelihoodField,
+        submap: &Submap,
         points: &[Point2],
         previous: &Pose2,
     ) -> Result<(Registration, bool), RegisterError> {
@@ -251,7 +275,7 @@ impl<'c> Mapper<'c> {
         let mut trusted: Vec<(f64, BlindMotion, Registration)> = Vec::new();
         let mut untrusted = None;
         for (motion, prior) in blind_priors(previous, &self.motion, config) {
-            let reg = register(field, points, &prior, &register_config)?;
+            let reg = submap.register(points, &prior, &register_config)?;
             if reg.accepted {
                 let ln = reg.mean_log_likelihood * reg.points as f64 + prior.ln_density(&reg.pose);
                 trusted.push((ln, motion, reg));
@@ -284,12 +308,7 @@ impl<'c> Mapper<'c> {
             }
             (None, Some(reg)) => Ok((reg, false)),
             (None, None) => Ok((
-                register(
-                    field,
-                    points,
-                    &step_prior(previous, None, config),
-                    &register_config,
-                )?,
+                submap.register(points, &step_prior(previous, None, config), &register_config)?,
                 false,
             )),
         }
@@ -300,8 +319,21 @@ impl<'c> Mapper<'c> {
     /// Whether its registration was trusted.
     pub(super) fn take(&mut self, k: usize, points: Vec<Point2>, reg: Option<&Registration>) -> bool {
         self.remember(k, points);
-        self.field = None;
         self.newest = Pose2::IDENTITY;
+        let accepted = self.place(k, reg);
+        // A step not registered breaks the local map: the scans after it
+        // begin one of their own (placed against what came before by loop
+        // closure), as matches against the map before it would take its
+        // walls from a prior that is only a guess.
+        if !accepted {
+            self.active.clear();
+        }
+        self.insert_local(k);
+        accepted
+    }
+
+    /// Scan `k`'s pose and the graph's step to it (see [`Mapper::take`]).
+    fn place(&mut self, k: usize, reg: Option<&Registration>) -> bool {
         let Some(reg) = reg else {
             self.poses.push(Pose2::IDENTITY);
             self.along_m.push(0.0);
@@ -315,6 +347,41 @@ impl<'c> Mapper<'c> {
         self.nodes.step(&step, &covariance, reg.pose, node);
         self.lost |= !reg.accepted;
         reg.accepted
+    }
+
+    /// Inserts registered scan `k` into the active submaps; one is begun
+    /// (anchored at `k`) when the newest holds `local_scans`, and the
+    /// oldest finished when it holds twice as many: the one matched
+    /// against always holds the last `local_scans` scans at least.
+    fn insert_local(&mut self, k: usize) {
+        let half = self.config.local_scans;
+        let pose = self.poses[k];
+        if self.active.is_empty() {
+            self.active.push_back(self.begin(k, k));
+        }
+        let points = &self.recent[k - self.first];
+        for a in self.active.iter_mut() {
+            a.submap.insert(&pose, points);
+        }
+        if self.active.back().is_some_and(|a| a.submap.frames() >= half) {
+            self.active.push_back(self.begin(k, k + 1));
+        }
+        if self.active.len() > 1 && self.active.front().is_some_and(|a| a.submap.frames() >= 2 * half) {
+            self.active.pop_front();
+        }
+    }
+
+    /// An empty submap anchored at scan `k`.
+    fn begin(&self, k: usize, from: usize) -> Active {
+        Active {
+            submap: Submap::new(
+                self.poses[k],
+                self.config.field_resolution_m,
+                &self.config.register,
+            ),
+            first: k,
+            from,
+        }
     }
 
     /// Places a scan the motion filter leaves out at `relative`, its
@@ -410,29 +477,12 @@ impl<'c> Mapper<'c> {
         &self.recent[k - self.first]
     }
 
-    /// The likelihood field of recent scans `range` at their current poses.
-    fn field(&self, range: std::ops::Range<usize>) -> LikelihoodField {
-        let points: Vec<Point2> = range
-            .flat_map(|k| {
-                self.points(k)
-                    .iter()
-                    .map(move |p| self.poses[k].transform_point(*p))
-            })
-            .collect();
-        self.field_of(&points)
-    }
-
-    /// The likelihood field of obstacle points in the map frame.
-    fn field_of(&self, points: &[Point2]) -> LikelihoodField {
-        let r = &self.config.register;
-        LikelihoodField::from_points(points, self.config.field_resolution_m, r.sigma_m, r.epsilon)
-    }
-
     /// Files scan `k`'s endpoints, forgetting those no local map or
     /// keyframe needs any more.
     fn remember(&mut self, k: usize, points: Vec<Point2>) {
         let c = &self.config;
-        let keep = (c.local_scans + 1).max(2 * c.loops.anchor_scans + 1);
+        // The active submaps' scans, and a keyframe's.
+        let keep = (2 * c.local_scans + 1).max(2 * c.loops.anchor_scans + 1);
         self.recent.push_back(points);
         while self.recent.len() > keep {
             self.recent.pop_front();
@@ -591,7 +641,18 @@ impl<'c> Mapper<'c> {
         }
         self.unsolved = false;
         self.disagree = false;
-        self.field = None;
+        // The active submaps made anew of their scans at the poses solved
+        // (a submap moved whole with its anchor would keep the drift the
+        // solve took out of it).
+        // (Each dropped before its successor is made: memory holds two.)
+        let held: Vec<(usize, usize)> = self.active.drain(..).map(|a| (a.first, a.from)).collect();
+        for (first, from) in held {
+            let mut again = self.begin(first, from);
+            for k in from..self.poses.len() {
+                again.submap.insert(&self.poses[k], self.points(k));
+            }
+            self.active.push_back(again);
+        }
         self.keyframes.forget_pending();
     }
 }
