@@ -29,9 +29,9 @@ use pirouette_grid::OccupancyGrid;
 /// time).
 ///
 /// # Memory
-/// About 12 bytes per cell of the points' extent (plus a border of
-/// `3σ`): value, squared distance, seen floor and four pooled levels; and
-/// 16 bytes per point.
+/// About 8 bytes per cell of the points' extent (plus a border of `3σ`):
+/// value, seen floor and four pooled levels (four more, the squared
+/// distances, in a field that grows); and 16 bytes per point.
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
     /// The obstacle points, bucketed for nearest-point queries.
@@ -48,7 +48,8 @@ pub struct LikelihoodField {
     height: usize,
     values: Vec<f32>,
     /// Squared distance from each cell centre to the nearest point within
-    /// `reach` cells (infinite beyond).
+    /// `reach` cells (infinite beyond); kept once the field has grown
+    /// (empty in a field made at once, which needs it no more).
     d2: Vec<f32>,
     /// Cells the map has seen free (empty: none).
     free: Vec<bool>,
@@ -206,6 +207,8 @@ impl LikelihoodField {
         }
         field.pool_all();
         field.points.add(&points);
+        // Kept only by a field that grows (see `insert`).
+        field.d2 = Vec::new();
         field
     }
 
@@ -247,6 +250,14 @@ impl LikelihoodField {
             .copied()
             .filter(|p| p.x.is_finite() && p.y.is_finite())
             .collect();
+        if self.d2.len() != self.values.len() {
+            // A field made at once keeps no distances: found again.
+            self.d2 = vec![f32::INFINITY; self.values.len()];
+            let held: Vec<Point2> = self.points.all().collect();
+            for p in &held {
+                self.stamp_distances(p);
+            }
+        }
         let Some((lo, hi)) = lattice_extent(&points, None, None, self.reach, &|p| self.cell_of(p)) else {
             return;
         };
@@ -288,8 +299,10 @@ impl LikelihoodField {
         let (x, y) = (i - self.min_cell.0, j - self.min_cell.1);
         let inside = x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height;
         inside
-            && (self.d2[y as usize * self.width + x as usize] as f64)
-                <= 0.25 * self.resolution_m * self.resolution_m
+            && self
+                .d2
+                .get(y as usize * self.width + x as usize)
+                .is_some_and(|&d| (d as f64) <= 0.25 * self.resolution_m * self.resolution_m)
     }
 
     /// The lattice made to cover `lo..=hi` (cells), keeping what it held
@@ -818,6 +831,11 @@ impl Buckets {
         })
     }
 
+    /// Every point held.
+    fn all(&self) -> impl Iterator<Item = Point2> + '_ {
+        self.cells.iter().flatten().map(|c| Point2::new(c[0], c[1]))
+    }
+
     /// The nearest point within the cutoff of `p` and its squared distance.
     fn nearest(&self, p: Point2) -> Option<([f64; 2], f64)> {
         let (i, j) = self.bucket_of(p);
@@ -1062,7 +1080,13 @@ mod tests {
             let pts: Vec<Point2> = (0..80)
                 .map(|_| Point2::new(rng.random_range(-r..r), rng.random_range(-r..0.5 * r)))
                 .collect();
-            grown.insert(&pts);
+            // The first batch made at once (a field that keeps no
+            // distances until it grows), the others inserted.
+            if batch == 0 {
+                grown = LikelihoodField::from_points(&pts, 0.01, 0.015, 0.2);
+            } else {
+                grown.insert(&pts);
+            }
             all.extend(pts);
         }
         let whole = LikelihoodField::from_points(&all, 0.01, 0.015, 0.2);
