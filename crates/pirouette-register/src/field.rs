@@ -191,8 +191,9 @@ impl LikelihoodField {
                 *f = grid.log_odds(i, j) < reaching;
             }
         }
+        let mut scratch = Vec::new();
         for p in &points {
-            field.stamp_distances(p);
+            field.stamp_distances(p, &mut scratch);
         }
         // Most cells lie beyond every point's reach, where the value is
         // the base's logarithm alone.
@@ -254,8 +255,9 @@ impl LikelihoodField {
             // A field made at once keeps no distances: found again.
             self.d2 = vec![f32::INFINITY; self.values.len()];
             let held: Vec<Point2> = self.points.all().collect();
+            let mut scratch = Vec::new();
             for p in &held {
-                self.stamp_distances(p);
+                self.stamp_distances(p, &mut scratch);
             }
         }
         let Some((lo, hi)) = lattice_extent(&points, None, None, self.reach, &|p| self.cell_of(p)) else {
@@ -392,18 +394,25 @@ impl LikelihoodField {
             .then_some(((x_lo as usize, x_hi as usize), (y_lo as usize, y_hi as usize)))
     }
 
-    /// Lowers the squared distances within `p`'s reach to `p`'s.
-    fn stamp_distances(&mut self, p: &Point2) {
+    /// Lowers the squared distances within `p`'s reach to `p`'s
+    /// (`scratch`: room for the squared offsets of its columns).
+    fn stamp_distances(&mut self, p: &Point2, scratch: &mut Vec<f64>) {
         let Some(((x_lo, x_hi), (y_lo, y_hi))) = self.reach_of(p) else {
             return;
         };
         let res = self.resolution_m;
+        // The squared offsets across the columns, shared by every row.
+        scratch.clear();
+        scratch.extend((x_lo..=x_hi).map(|x| {
+            let ddx = ((self.min_cell.0 + x as i64) as f64 + 0.5) * res - p.x;
+            ddx * ddx
+        }));
         for y in y_lo..=y_hi {
             let ddy = ((self.min_cell.1 + y as i64) as f64 + 0.5) * res - p.y;
-            for x in x_lo..=x_hi {
-                let ddx = ((self.min_cell.0 + x as i64) as f64 + 0.5) * res - p.x;
-                let k = y * self.width + x;
-                self.d2[k] = self.d2[k].min((ddx * ddx + ddy * ddy) as f32);
+            let dy2 = ddy * ddy;
+            let row = &mut self.d2[y * self.width + x_lo..=y * self.width + x_hi];
+            for (d, &dx2) in row.iter_mut().zip(scratch.iter()) {
+                *d = d.min((dx2 + dy2) as f32);
             }
         }
     }
@@ -686,16 +695,23 @@ impl LikelihoodField {
     }
 
     /// The obstacle points that can be nearest within the cutoff to any
-    /// point within `reach_m` of each of `starts`: those within the cutoff
-    /// plus `reach_m` of the start.
+    /// point within `reach_m` of each of `starts`.
     pub(crate) fn neighbourhood(&self, starts: &[Point2], reach_m: f64) -> Neighbourhood {
         let mut offsets = Vec::with_capacity(starts.len() + 1);
         let mut candidates = Vec::new();
         offsets.push(0u32);
-        // A hair wider against rounding: a point too many costs nothing,
-        // a point missed would change the value.
-        let radius = (self.points.cutoff + reach_m) * (1.0 + 1e-9) + 1e-12;
         for p in starts {
+            // A point `q` within reach of a start whose nearest obstacle
+            // lies `d₀` away has its own within `d₀ + reach`: all within
+            // `d₀ + 2·reach` of the start. Without one within the cutoff,
+            // any within the cutoff of `q` lies within cutoff + reach.
+            let radius = match self.points.nearest(*p) {
+                Some((_, d0)) => d0.sqrt() + 2.0 * reach_m,
+                None => self.points.cutoff + reach_m,
+            };
+            // A hair wider against rounding: a point too many costs
+            // nothing, a point missed would change the value.
+            let radius = radius.min(self.points.cutoff + reach_m) * (1.0 + 1e-9) + 1e-12;
             self.points.within(*p, radius, &mut candidates);
             offsets.push(candidates.len() as u32);
         }
