@@ -381,19 +381,9 @@ pub fn register(
     if config.covariance == Covariance::Posterior {
         return posterior::register_posterior(field, points_robot, prior, config);
     }
-    prior.check()?;
+    let points = thinned(field, points_robot, prior, config)?;
     let res = field.resolution_m();
-    let points = thin_points(points_robot, config.spacing_m.max(res));
-    let fallback = |mean_ll: f64, matched: usize, evaluated: usize| Registration {
-        pose: prior.mean,
-        covariance: prior.covariance(),
-        mean_log_likelihood: mean_ll,
-        points: points.len(),
-        matched,
-        accepted: false,
-        evaluated,
-        rival: None,
-    };
+    let fallback = |mean_ll, matched, evaluated| untrusted(prior, points.len(), mean_ll, matched, evaluated);
     if points.len() < config.min_matched || field.obstacle_points() == 0 {
         return Ok(fallback(field.floor() as f64, 0, 0));
     }
@@ -484,19 +474,9 @@ pub fn refine_from_prior(
     prior: &PosePrior,
     config: &RegisterConfig,
 ) -> Result<Registration, RegisterError> {
-    prior.check()?;
+    let points = thinned(field, points_robot, prior, config)?;
     let res = field.resolution_m();
-    let points = thin_points(points_robot, config.spacing_m.max(res));
-    let fallback = |mean_ll: f64, matched: usize| Registration {
-        pose: prior.mean,
-        covariance: prior.covariance(),
-        mean_log_likelihood: mean_ll,
-        points: points.len(),
-        matched,
-        accepted: false,
-        evaluated: 0,
-        rival: None,
-    };
+    let fallback = |mean_ll, matched| untrusted(prior, points.len(), mean_ll, matched, 0);
     if points.len() < config.min_matched || field.obstacle_points() == 0 {
         return Ok(fallback(field.floor() as f64, 0));
     }
@@ -521,6 +501,42 @@ pub fn refine_from_prior(
         evaluated: 0,
         rival: None,
     })
+}
+
+/// The endpoints a registration matches, its prior checked: thinned to
+/// one per [`RegisterConfig::spacing_m`] (at least a field cell).
+fn thinned(
+    field: &LikelihoodField,
+    points_robot: &[Point2],
+    prior: &PosePrior,
+    config: &RegisterConfig,
+) -> Result<Vec<Point2>, RegisterError> {
+    prior.check()?;
+    Ok(thin_points(
+        points_robot,
+        config.spacing_m.max(field.resolution_m()),
+    ))
+}
+
+/// A registration that trusts no match: the prior's mean and covariance,
+/// with what was found of `points` endpoints.
+fn untrusted(
+    prior: &PosePrior,
+    points: usize,
+    mean_ll: f64,
+    matched: usize,
+    evaluated: usize,
+) -> Registration {
+    Registration {
+        pose: prior.mean,
+        covariance: prior.covariance(),
+        mean_log_likelihood: mean_ll,
+        points,
+        matched,
+        accepted: false,
+        evaluated,
+        rival: None,
+    }
 }
 
 /// A lattice pose's score and its steps `(a, b, kt)` (see [`Lattice`]).

@@ -27,19 +27,9 @@ pub(super) fn register_posterior(
     prior: &PosePrior,
     config: &RegisterConfig,
 ) -> Result<Registration, RegisterError> {
-    prior.check()?;
+    let points = thinned(field, points_robot, prior, config)?;
     let res = field.resolution_m();
-    let points = thin_points(points_robot, config.spacing_m.max(res));
-    let fallback = |mean_ll: f64, matched: usize, evaluated: usize| Registration {
-        pose: prior.mean,
-        covariance: prior.covariance(),
-        mean_log_likelihood: mean_ll,
-        points: points.len(),
-        matched,
-        accepted: false,
-        evaluated,
-        rival: None,
-    };
+    let fallback = |mean_ll, matched, evaluated| untrusted(prior, points.len(), mean_ll, matched, evaluated);
     if points.len() < config.min_matched || field.obstacle_points() == 0 {
         return Ok(fallback(field.floor() as f64, 0, 0));
     }
