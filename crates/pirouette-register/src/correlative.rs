@@ -462,47 +462,6 @@ pub fn register(
     })
 }
 
-/// Refines the prior's mean on the exact field by the Gauss-Newton steps
-/// [`register`] takes after its search, without the search: the nearest
-/// peak of the score from the prior's mean, for a frame whose prior is
-/// known to be close (within a cell or so). The covariance is Laplace's
-/// there; no rival is sought (`rival` is `None`). Trusted, as
-/// [`register`]'s matches are, where enough endpoints lie on the map.
-pub fn refine_from_prior(
-    field: &LikelihoodField,
-    points_robot: &[Point2],
-    prior: &PosePrior,
-    config: &RegisterConfig,
-) -> Result<Registration, RegisterError> {
-    let points = thinned(field, points_robot, prior, config)?;
-    let res = field.resolution_m();
-    let fallback = |mean_ll, matched| untrusted(prior, points.len(), mean_ll, matched, 0);
-    if points.len() < config.min_matched || field.obstacle_points() == 0 {
-        return Ok(fallback(field.floor() as f64, 0));
-    }
-    let (lattice, _) = Lattice::around(prior, &points, res, config);
-    let anchored = Anchored::new(field, &points, prior.mean, res);
-    let (pose, information) = refine(&anchored, prior, res, lattice.theta_step);
-    let (sum, matched) = anchored.evaluate(&pose);
-    let mean_ll = sum / points.len() as f64;
-    let Some(covariance) = information.try_inverse().map(|c| 0.5 * (c + c.transpose())) else {
-        return Ok(fallback(mean_ll, matched));
-    };
-    if matched < config.min_matched {
-        return Ok(fallback(mean_ll, matched));
-    }
-    Ok(Registration {
-        pose,
-        covariance,
-        mean_log_likelihood: mean_ll,
-        points: points.len(),
-        matched,
-        accepted: true,
-        evaluated: 0,
-        rival: None,
-    })
-}
-
 /// The endpoints a registration matches, its prior checked: thinned to
 /// one per [`RegisterConfig::spacing_m`] (at least a field cell).
 fn thinned(

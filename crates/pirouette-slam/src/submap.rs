@@ -6,8 +6,7 @@
 
 use pirouette_geom::{Point2, Pose2};
 use pirouette_register::{
-    refine_from_prior, register, thin_points, LikelihoodField, PosePrior, RegisterConfig, RegisterError,
-    Registration,
+    register, thin_points, LikelihoodField, PosePrior, RegisterConfig, RegisterError, Registration,
 };
 
 /// Obstacle points and their likelihood field in the frame of `anchor`.
@@ -97,18 +96,6 @@ impl Submap {
         config: &RegisterConfig,
     ) -> Result<Registration, RegisterError> {
         let reg = register(&self.field, points, &self.local_prior(prior), config)?;
-        Ok(self.to_world(reg))
-    }
-
-    /// As [`Submap::register`] without the search: the prior's mean
-    /// refined (see [`refine_from_prior`]).
-    pub fn refine(
-        &self,
-        points: &[Point2],
-        prior: &PosePrior,
-        config: &RegisterConfig,
-    ) -> Result<Registration, RegisterError> {
-        let reg = refine_from_prior(&self.field, points, &self.local_prior(prior), config)?;
         Ok(self.to_world(reg))
     }
 
