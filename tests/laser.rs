@@ -7,7 +7,7 @@ use pirouette::eval::laser::{
 };
 use pirouette::geom::Pose2;
 use pirouette::io::BagOptions;
-use pirouette::laser::{check_config, register_log, LaserConfig, LoopConfig, RegisteredLog};
+use pirouette::laser::{check_config, fitted_grid, register_log, LaserConfig, LoopConfig, RegisteredLog};
 use pirouette::sim::{LogSim, OfficeFloor, Walls};
 
 /// The robot's true path: twice round the ring corridor
@@ -487,6 +487,53 @@ fn bad_laser_logs_are_refused_naming_the_file() {
         "{err}"
     );
     assert!(!out.exists(), "nothing written");
+}
+
+/// A map beyond its memory budget is not refused after the work: its
+/// cells are made coarser to fit, with a warning naming them, and every
+/// pose is written; poses no cell size can hold are refused before any
+/// scan is fused.
+#[test]
+fn a_map_beyond_its_budget_is_written_with_coarser_cells() {
+    let path = laps(1);
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let log = dir.path().join("sim.log");
+    std::fs::write(&log, simulated_log(&path, true, 5)).expect("write the log");
+    let out = dir.path().join("map");
+    // 2 MB: 222 222 cells; the ring's poses ± 20 m of reach need about
+    // 1000 × 1000 cells of 5 cm, 500 × 500 of 10 cm, 250 × 250 of 20 cm.
+    let run = pirouette(&[
+        "map",
+        log.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+        "--max-map-mb",
+        "2",
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert!(
+        err.contains("sim.log") && err.contains("written with cells of 20 cm instead"),
+        "{err}"
+    );
+    let yaml = std::fs::read_to_string(out.join("map.yaml")).expect("map.yaml");
+    assert!(yaml.contains("resolution: 0.2"), "{yaml}");
+    let poses: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("poses.json")).expect("poses")).expect("JSON");
+    assert_eq!(poses.as_array().expect("a list").len(), path.len());
+
+    let config = LaserConfig::default();
+    let mut reg = register_log(&log, &config, &BagOptions::default(), &|| {}).expect("registered");
+    let (fitted, warning) = fitted_grid(&reg, &config).expect("fits");
+    assert_eq!((fitted, warning), (config.grid.clone(), None));
+    reg.scans[3].pose = Pose2::new(1e9, 0.0, 0.0);
+    assert!(
+        matches!(
+            fitted_grid(&reg, &config),
+            Err(pirouette::slam::SlamError::Budget { .. })
+        ),
+        "a pose a million kilometres away"
+    );
 }
 
 #[test]

@@ -1,16 +1,16 @@
 //! `pirouette map LOG` for laser logs, and `pirouette eval laser`.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use pirouette::eval::laser::{evaluate_laser, LaserScores};
 use pirouette::eval::relations::{score_relations, MATCH_WINDOW_S};
 use pirouette::geom::Pose2;
-use pirouette::grid::RosMap;
+use pirouette::grid::{OccupancyGrid, RosMap};
 use pirouette::io::bag::{log_kind, LogKind};
 use pirouette::io::{
-    map_names, read_relations, read_tum, write_map_dir, write_pose_graph, write_tum, BagOptions,
+    map_names, read_relations, read_tum, write_map_files, write_pose_graph, write_tum, BagOptions,
     OdometrySource, PoseRecord,
 };
-use pirouette::laser::{count_scans, map_log, LaserConfig, LaserMap};
+use pirouette::laser::{count_scans, fitted_grid, grid_of_log, register_log, LaserConfig, RegisteredLog};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -36,11 +36,25 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
         LogKind::Carmen => super::progress(count_scans(log, bag)?, "register"),
         _ => super::progress(0, "scans read"),
     };
-    let mapped = map_log(log, config, bag, &|| bar.inc(1))?;
+    let r = register_log(log, config, bag, &|| bar.inc(1))?;
     bar.finish_and_clear();
-    write(log, &mapped, out)?;
+    // The poses first: whatever befalls the grid, the registration's work
+    // is kept.
+    write_poses(log, &r, out)?;
+    let kept = || {
+        format!(
+            "{}: the poses are written to {}, the map is not",
+            log.display(),
+            out.display()
+        )
+    };
+    let (grid_config, coarsened) = fitted_grid(&r, config).with_context(kept)?;
+    if let Some(w) = &coarsened {
+        eprintln!("warning: {}: {w}", log.display());
+    }
+    let grid = grid_of_log(log, &r, bag, config, &grid_config).with_context(kept)?;
+    write_map(log, &r, &grid, out)?;
     let seconds = start.elapsed().as_secs_f64();
-    let r = &mapped.registered;
     let scans = &r.scans;
     let unregistered = scans.iter().filter(|s| !s.registered).count();
     let path_m: f64 = scans
@@ -126,7 +140,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
     if none > 0 {
         outln!("{none} steps had no odometry in the log and were matched under each motion the robot may have made")?;
     }
-    let ros = RosMap::from_grid(&mapped.grid);
+    let ros = RosMap::from_grid(&grid);
     outln!(
         "map {} × {} cells of {} cm written to {} (look at {})",
         ros.width,
@@ -138,11 +152,32 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
     Ok(())
 }
 
-/// Writes the map folder of a mapped log: `poses.json` one pose per scan
-/// registered, `poses.tum` one per scan read (skipped ones placed by their match).
-fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
-    let ros = RosMap::from_grid(&mapped.grid);
-    let r = &mapped.registered;
+/// Writes the poses of a registered log into its map folder: `poses.json`
+/// one pose per scan registered, `poses.tum` one per scan read (skipped
+/// ones placed by their match), and the pose graph.
+fn write_poses(log: &Path, r: &RegisteredLog, out: &Path) -> Result<()> {
+    let records: Vec<PoseRecord> = r
+        .scans
+        .iter()
+        .map(|s| PoseRecord::scan(s.scan, s.t, &s.pose).with_trust(s.trust()))
+        .collect();
+    if records.is_empty() {
+        bail!("{}: no scan was mapped", log.display());
+    }
+    let every: Vec<PoseRecord> = (r.every_scan().iter())
+        .map(|&(k, t, pose)| PoseRecord::scan(k, t, &pose))
+        .collect();
+    pirouette::io::write_poses(out, &records)?;
+    pirouette::io::atomic_write_with(&out.join(map_names::POSES_TUM), |w| write_tum(w, &every))?;
+    let ids: Vec<u64> = r.nodes.iter().map(|&k| r.scans[k].scan as u64).collect();
+    write_pose_graph(&out.join(GRAPH_FILE), &r.graph, &ids)?;
+    Ok(())
+}
+
+/// Writes the map of a registered log into its folder: the ROS map and
+/// its picture.
+fn write_map(log: &Path, r: &RegisteredLog, grid: &OccupancyGrid, out: &Path) -> Result<()> {
+    let ros = RosMap::from_grid(grid);
     let poses: Vec<Pose2> = r.scans.iter().map(|s| s.pose).collect();
     let name = log
         .file_name()
@@ -155,21 +190,7 @@ fn write(log: &Path, mapped: &LaserMap, out: &Path) -> Result<()> {
     let picture = pirouette::plot::map_figure(&ros, &poses, &[], &title);
     let mut png = Vec::new();
     picture.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    let records: Vec<PoseRecord> = r
-        .scans
-        .iter()
-        .map(|s| PoseRecord::scan(s.scan, s.t, &s.pose).with_trust(s.trust()))
-        .collect();
-    if records.is_empty() {
-        bail!("{}: no scan was mapped", log.display());
-    }
-    let every: Vec<PoseRecord> = (r.every_scan().iter())
-        .map(|&(k, t, pose)| PoseRecord::scan(k, t, &pose))
-        .collect();
-    write_map_dir(out, &ros, &png, &records)?;
-    pirouette::io::atomic_write_with(&out.join(map_names::POSES_TUM), |w| write_tum(w, &every))?;
-    let ids: Vec<u64> = r.nodes.iter().map(|&k| r.scans[k].scan as u64).collect();
-    write_pose_graph(&out.join(GRAPH_FILE), &r.graph, &ids)?;
+    write_map_files(out, &ros, &png)?;
     Ok(())
 }
 

@@ -6,7 +6,7 @@ use pirouette::eval::map::{
     evaluate_map_dir, truth_in_map_frame, MapInputs, MapQuality, MapReport, TrajectoryScores,
 };
 use pirouette::geom::Pose2;
-use pirouette::grid::{GridConfig, RosMap};
+use pirouette::grid::{GridConfig, RosMap, BYTES_PER_CELL};
 use pirouette::io::Motion;
 use pirouette::io::{map_names, write_map_dir, Dataset, PoseRecord};
 use pirouette::mapping::{progress_steps, MapConfig, MapRun, SweepPose};
@@ -23,6 +23,12 @@ pub struct MapOptions {
     /// 0.05 for laser logs].
     #[arg(long)]
     resolution: Option<f64>,
+    /// Memory the map's grid may take, MB (nine bytes a cell). A laser
+    /// log whose map would take more is mapped with cells 2, 4, 8, …
+    /// times as wide, with a warning; a camera dataset whose commanded
+    /// moves need more is refused before any image is read.
+    #[arg(long, default_value_t = GridConfig::default().max_cells * BYTES_PER_CELL / 1_000_000)]
+    max_map_mb: usize,
     /// Registration also matches ranges beyond the soft limit, up to this
     /// many times it (1: only the ranges the map takes). They never enter
     /// the map.
@@ -52,10 +58,18 @@ impl MapOptions {
         {
             bail!("--resolution {r} m is outside [0.001, 1]");
         }
+        if self.max_map_mb == 0 {
+            bail!("--max-map-mb 0: the map needs some memory");
+        }
         if !(self.far_reach.is_finite() && self.far_reach >= 1.0) {
             bail!("--far-reach {} is not a factor of at least 1", self.far_reach);
         }
         Ok(())
+    }
+
+    /// The grid's cell budget of `--max-map-mb`.
+    fn max_cells(&self) -> usize {
+        self.max_map_mb.saturating_mul(1_000_000) / BYTES_PER_CELL
     }
 
     /// The run's settings.
@@ -65,6 +79,7 @@ impl MapOptions {
             map: MapConfig {
                 grid: GridConfig {
                     resolution_m: self.resolution.unwrap_or(GridConfig::default().resolution_m),
+                    max_cells: self.max_cells(),
                     ..GridConfig::default()
                 },
                 far_reach: self.far_reach,
@@ -228,14 +243,15 @@ pub fn evaluate(
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
     if Sensor::of(&a.dataset) == Sensor::Laser {
-        // Only the cell side applies to a laser log.
+        // Only the grid's settings apply to a laser log.
         let camera_only = MapOptions {
             resolution: None,
+            max_map_mb: MapOptions::default().max_map_mb,
             ..a.options.clone()
         };
         if camera_only != MapOptions::default() {
             bail!(
-                "{} is a laser log: of the map settings only --resolution applies to it (the others are a camera's)",
+                "{} is a laser log: of the map settings only --resolution and --max-map-mb apply to it (the others are a camera's)",
                 a.dataset.display()
             );
         }
@@ -243,6 +259,7 @@ pub fn map(a: MapArgs) -> Result<()> {
         if let Some(r) = a.options.resolution {
             config.grid.resolution_m = r;
         }
+        config.grid.max_cells = a.options.max_cells();
         let bag = pirouette::io::BagOptions {
             scan_topic: a.scan_topic,
             odom_topic: a.odom_topic,

@@ -64,7 +64,45 @@ fn logit(p: f64) -> f32 {
     (p / (1.0 - p)).ln() as f32
 }
 
+/// Bytes a cell of the grid holds (log-odds, a per-profile stamp and mark).
+pub const BYTES_PER_CELL: usize = 9;
+
+/// Storage cells the grid adds around what it must hold, each side.
+const EDGE_CELLS: f64 = 16.0;
+
+/// The most times [`GridConfig::fitted`] doubles a cell's side.
+const MAX_DOUBLINGS: u32 = 12;
+
 impl GridConfig {
+    /// The cells a grid of these settings stores to hold every profile
+    /// reaching `reach_m` from a sensor within the box `lo..=hi` (metres);
+    /// infinite for a box that is not finite.
+    pub fn cells_for(&self, lo: Point2, hi: Point2, reach_m: f64) -> f64 {
+        if ![lo.x, lo.y, hi.x, hi.y, reach_m].iter().all(|v| v.is_finite()) {
+            return f64::INFINITY;
+        }
+        let s = self.resolution_m;
+        let side =
+            |a: f64, b: f64| ((b - a).max(0.0) + 2.0 * (reach_m + 2.0 * s)) / s + 2.0 * EDGE_CELLS + 2.0;
+        side(lo.x, hi.x) * side(lo.y, hi.y)
+    }
+
+    /// These settings where the grid of the box (see
+    /// [`GridConfig::cells_for`]) fits [`GridConfig::max_cells`]; else
+    /// with cells 2, 4, 8, … times as wide, the first that fits. `None`
+    /// where not even cells 4096 times as wide fit (or the box is not
+    /// finite).
+    pub fn fitted(&self, lo: Point2, hi: Point2, reach_m: f64) -> Option<GridConfig> {
+        let mut config = self.clone();
+        for _ in 0..=MAX_DOUBLINGS {
+            if config.cells_for(lo, hi, reach_m) <= self.max_cells as f64 {
+                return Some(config);
+            }
+            config.resolution_m *= 2.0;
+        }
+        None
+    }
+
     fn check(&self) -> Result<(), GridError> {
         let prob = |p: f64| p > 0.0 && p < 1.0;
         if !(self.resolution_m.is_finite() && self.resolution_m > 0.0) {
@@ -270,6 +308,20 @@ impl OccupancyGrid {
         out
     }
 
+    /// Stores the cells a profile reaching `reach_m` from any sensor
+    /// position within `lo..=hi` touches, at once (so that inserting such
+    /// profiles never grows the grid, and never holds two copies of it);
+    /// false, storing nothing more, where they would pass the budget.
+    pub fn reserve(&mut self, lo: Point2, hi: Point2, reach_m: f64) -> bool {
+        let r = reach_m + 2.0 * self.config.resolution_m;
+        let (lo, hi) = (Point2::new(lo.x - r, lo.y - r), Point2::new(hi.x + r, hi.y + r));
+        let far = |p: Point2| {
+            !(p.x.is_finite() && p.y.is_finite())
+                || p.x.abs().max(p.y.abs()) / self.config.resolution_m >= 1e15
+        };
+        !far(lo) && !far(hi) && self.ensure(self.cell_of(lo), self.cell_of(hi))
+    }
+
     /// Whether some profile was left out because the grid would have grown
     /// beyond [`GridConfig::max_cells`]: the grid is then incomplete.
     pub fn overflowed(&self) -> bool {
@@ -465,6 +517,53 @@ mod tests {
         let cells = g.log_odds.len();
         assert_eq!(g.insert_profile(&Pose2::new(-1e10, 1e10, 0.0), &rop, 0.1), 0);
         assert!(g.overflowed() && g.log_odds.len() == cells);
+    }
+
+    /// A grid reserved for a box holds every profile from within it
+    /// without growing, and no more cells than the box's count says; the
+    /// fitted settings double the cell side until that count fits.
+    #[test]
+    fn a_reserved_grid_holds_its_box_and_fitted_cells_fit_the_budget() {
+        use pirouette_profile::Rop;
+        let mut rop = Rop::covering(-3.0, 3.0, 1f64.to_radians(), 2.0).unwrap();
+        rop.range_m.iter_mut().for_each(|r| *r = 1.5);
+        let (lo, hi) = (Point2::new(-1.0, 2.0), Point2::new(3.0, 4.5));
+        let config = GridConfig {
+            resolution_m: 0.05,
+            max_cells: 60_000,
+            ..GridConfig::default()
+        };
+        // (4 + 2·2.1)/0.05 + 34 = 198 by (2.5 + 4.2)/0.05 + 34 = 168.
+        let need = config.cells_for(lo, hi, 2.0);
+        assert!((need - 198.0 * 168.0).abs() < 1e-6, "{need}");
+        assert_eq!(config.fitted(lo, hi, 2.0), Some(config.clone()));
+        let mut g = OccupancyGrid::new(config.clone()).unwrap();
+        assert!(g.reserve(lo, hi, 2.0));
+        assert!(((g.width * g.height) as f64) <= need);
+        let stored = g.extent();
+        for pose in [
+            Pose2::new(-1.0, 2.0, 0.3),
+            Pose2::new(3.0, 4.5, -2.0),
+            Pose2::new(1.0, 3.0, 1.0),
+        ] {
+            assert!(g.insert_profile(&pose, &rop, 0.0) > 0);
+        }
+        assert_eq!(g.extent(), stored);
+        assert!(!g.overflowed());
+        // A quarter of the budget: cells twice as wide hold the box.
+        let small = GridConfig {
+            max_cells: 15_000,
+            ..config.clone()
+        };
+        let fitted = small.fitted(lo, hi, 2.0).unwrap();
+        assert_eq!(fitted.resolution_m, 0.1);
+        assert!(fitted.cells_for(lo, hi, 2.0) <= 15_000.0);
+        let mut g = OccupancyGrid::new(small).unwrap();
+        assert!(!g.reserve(lo, hi, 2.0) && g.log_odds.is_empty());
+        let far = Point2::new(1e12, 0.0);
+        assert_eq!(config.fitted(lo, far, 2.0), None);
+        assert_eq!(config.fitted(lo, Point2::new(f64::NAN, 0.0), 2.0), None);
+        assert!(!OccupancyGrid::new(config).unwrap().reserve(lo, far, 2.0));
     }
 
     #[test]

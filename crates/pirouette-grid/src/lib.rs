@@ -32,5 +32,5 @@ mod grid;
 mod traverse;
 
 pub use export::{RosMap, FREE, MAP_BORDER_CELLS, OCCUPIED, UNKNOWN};
-pub use grid::{GridConfig, GridError, OccupancyGrid, FREE_THRESH, OCCUPIED_THRESH};
+pub use grid::{GridConfig, GridError, OccupancyGrid, BYTES_PER_CELL, FREE_THRESH, OCCUPIED_THRESH};
 pub use traverse::traverse;

@@ -58,7 +58,10 @@ pub use images::{
     read_stamps, read_truth, ImageFolder, Rig, Selection, Stamped, TruthClock, TruthFrame, TruthTrack,
     RIG_FILE, RIG_FORMAT,
 };
-pub use map_dir::{names as map_names, read_poses, read_ros_map, write_map_dir, write_tum, PoseRecord};
+pub use map_dir::{
+    names as map_names, read_poses, read_ros_map, write_map_dir, write_map_files, write_poses, write_tum,
+    PoseRecord,
+};
 pub use places::{
     decode_place_index, read_place_index, write_place_index, PlaceIndexHeader, MAX_PLACE_INDEX_BYTES,
     OLDEST_PLACE_INDEX_FORMAT, PLACE_INDEX_FORMAT, PLACE_INDEX_HEADER_BYTES, PLACE_INDEX_MAGIC,

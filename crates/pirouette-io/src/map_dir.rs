@@ -118,12 +118,25 @@ pub fn write_map_dir(
     picture_png: &[u8],
     poses: &[PoseRecord],
 ) -> Result<(), IoError> {
+    write_poses(dir, poses)?;
+    write_map_files(dir, map, picture_png)
+}
+
+/// Writes a map folder's `poses.json` and `poses.tum`, each replaced
+/// atomically (the folder created if missing).
+pub fn write_poses(dir: &Path, poses: &[PoseRecord]) -> Result<(), IoError> {
+    std::fs::create_dir_all(dir).map_err(|e| IoError::io(dir, e))?;
+    write_json(&dir.join(names::POSES_JSON), &poses)?;
+    crate::atomic_write_with(&dir.join(names::POSES_TUM), |w| write_tum(w, poses))
+}
+
+/// Writes a map folder's `map.pgm`, `map.yaml` and `map.png` (given as
+/// PNG bytes), each replaced atomically (the folder created if missing).
+pub fn write_map_files(dir: &Path, map: &RosMap, picture_png: &[u8]) -> Result<(), IoError> {
     std::fs::create_dir_all(dir).map_err(|e| IoError::io(dir, e))?;
     atomic_write(&dir.join(names::PGM), &map.pgm())?;
     atomic_write(&dir.join(names::YAML), map.yaml(names::PGM).as_bytes())?;
-    atomic_write(&dir.join(names::PNG), picture_png)?;
-    write_json(&dir.join(names::POSES_JSON), &poses)?;
-    crate::atomic_write_with(&dir.join(names::POSES_TUM), |w| write_tum(w, poses))
+    atomic_write(&dir.join(names::PNG), picture_png)
 }
 
 /// Reads the `map_server` YAML (flat `key: value` lines, `#` comments) and

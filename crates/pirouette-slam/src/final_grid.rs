@@ -1,7 +1,7 @@
 //! The final map, built one way for every sensor: each frame's profile
 //! fused into one occupancy grid at the frame's solved pose.
 
-use pirouette_geom::Pose2;
+use pirouette_geom::{Point2, Pose2};
 use pirouette_grid::{GridConfig, OccupancyGrid};
 use pirouette_profile::Rop;
 
@@ -25,6 +25,26 @@ impl FinalGrid {
             blind_m,
             hint,
         })
+    }
+
+    /// An empty grid of `config` (see [`FinalGrid::new`]) holding at once
+    /// every profile reaching `reach_m` from a sensor within `sensors`
+    /// (`lo`, `hi`); refused where that passes the budget.
+    pub fn covering(
+        config: &GridConfig,
+        blind_m: f64,
+        hint: &'static str,
+        sensors: (Point2, Point2),
+        reach_m: f64,
+    ) -> Result<Self> {
+        let mut grid = Self::new(config, blind_m, hint)?;
+        if !grid.grid.reserve(sensors.0, sensors.1, reach_m) {
+            return Err(SlamError::Budget {
+                max_cells: config.max_cells,
+                hint,
+            });
+        }
+        Ok(grid)
     }
 
     /// Fuses a frame's profile seen from `pose` (the sensor's, in the

@@ -27,6 +27,6 @@ pub mod run;
 pub use config::{check_config, LaserConfig, LoopConfig, MotionFilter, OdometryNoise, MAX_WINDOW_SCANS};
 pub use motion::{blind_priors, step_prior, BlindMotion, MotionSoFar};
 pub use run::{
-    count_scans, grid_of_log, map_log, register_log, scan_profile, LaserMap, LoopClosure, RegisteredLog,
-    ScanPose, SkippedScan,
+    count_scans, fitted_grid, grid_of_log, map_log, register_log, scan_profile, LaserMap, LoopClosure,
+    RegisteredLog, ScanPose, SkippedScan,
 };

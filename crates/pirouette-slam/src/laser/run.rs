@@ -4,9 +4,9 @@
 use super::config::{check_config, LaserConfig};
 use super::mapper::{Mapper, Matched};
 use crate::frame::laser_frame;
-use pirouette_geom::Pose2;
+use pirouette_geom::{Point2, Pose2};
 use pirouette_graph::PoseGraph;
-use pirouette_grid::OccupancyGrid;
+use pirouette_grid::{GridConfig, OccupancyGrid, BYTES_PER_CELL};
 use pirouette_io::{open_laser_log, BagOptions, IoError, LaserScan, OdometrySource};
 use pirouette_profile::Rop;
 
@@ -54,6 +54,9 @@ pub struct LaserMap {
     pub registered: RegisteredLog,
     /// The occupancy grid.
     pub grid: OccupancyGrid,
+    /// Where the grid's cells are coarser than asked (the map would have
+    /// outgrown its budget), what was done.
+    pub coarsened: Option<String>,
 }
 
 /// A scan as a radial obstacle profile (see [`laser_frame`]).
@@ -211,16 +214,66 @@ pub fn register_log(
     Ok(registered)
 }
 
+/// The grid settings for a registered log, known before any scan is
+/// fused: `config.grid` where the map of the scans' poses fits its cell
+/// budget, else its cells made 2, 4, 8, … times as wide until it fits, and
+/// a warning naming the side used. Refused only where not even that fits
+/// (poses kilometres apart, or not finite).
+pub fn fitted_grid(registered: &RegisteredLog, config: &LaserConfig) -> Result<(GridConfig, Option<String>)> {
+    let (lo, hi) = sensor_box(registered);
+    let reach = f64::from(config.max_range_m);
+    let asked = &config.grid;
+    let fitted = asked.fitted(lo, hi, reach).ok_or(SlamError::Budget {
+        max_cells: asked.max_cells,
+        hint: "the poses lie too far apart for any cell size; the poses can still be written",
+    })?;
+    let warning = (fitted.resolution_m != asked.resolution_m).then(|| {
+        format!(
+            "the map of {:.0} × {:.0} m would need {:.0} million cells of {} cm, beyond the budget of {} million ({} MB): written with cells of {} cm instead",
+            hi.x - lo.x + 2.0 * reach,
+            hi.y - lo.y + 2.0 * reach,
+            asked.cells_for(lo, hi, reach) / 1e6,
+            asked.resolution_m * 100.0,
+            asked.max_cells / 1_000_000,
+            asked.max_cells * BYTES_PER_CELL / 1_000_000,
+            fitted.resolution_m * 100.0
+        )
+    });
+    Ok((fitted, warning))
+}
+
+/// The box of the laser's positions over a log's registered scans.
+fn sensor_box(registered: &RegisteredLog) -> (Point2, Point2) {
+    let mount = registered.info.mount;
+    let mut lo = Point2::new(f64::INFINITY, f64::INFINITY);
+    let mut hi = Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for s in &registered.scans {
+        let c = (s.pose * mount).translation();
+        (lo.x, lo.y, hi.x, hi.y) = (lo.x.min(c.x), lo.y.min(c.y), hi.x.max(c.x), hi.y.max(c.y));
+    }
+    (lo, hi)
+}
+
 /// The grid of a log's registered scans at the given robot poses (one
-/// per registered scan, in log order), the log streamed again.
+/// per registered scan, in log order), the log streamed again; its
+/// settings `grid` (see [`fitted_grid`]), its cells stored at once.
 pub fn grid_of_log(
     path: &Path,
     registered: &RegisteredLog,
     options: &BagOptions,
     config: &LaserConfig,
+    grid: &GridConfig,
 ) -> Result<OccupancyGrid> {
     let at = || path.display().to_string();
-    let mut grid = FinalGrid::new(&config.grid, 0.0, "use coarser cells")?;
+    let (lo, hi) = sensor_box(registered);
+    let mut grid = FinalGrid::covering(
+        grid,
+        0.0,
+        "use coarser cells",
+        (lo, hi),
+        f64::from(config.max_range_m),
+    )
+    .map_err(|e| e.at(at()))?;
     let mount = registered.info.mount;
     let mut wanted = registered.scans.iter().peekable();
     for scan in open_laser_log(path, options)? {
@@ -250,8 +303,14 @@ pub fn map_log(
     progress: &dyn Fn(),
 ) -> Result<LaserMap> {
     let registered = register_log(path, config, options, progress)?;
-    let grid = grid_of_log(path, &registered, options, config)?;
-    Ok(LaserMap { registered, grid })
+    let (fitted, coarsened) =
+        fitted_grid(&registered, config).map_err(|e| e.at(path.display().to_string()))?;
+    let grid = grid_of_log(path, &registered, options, config, &fitted)?;
+    Ok(LaserMap {
+        registered,
+        grid,
+        coarsened,
+    })
 }
 
 /// The laser scans of a log, counted without keeping them.
