@@ -35,6 +35,13 @@ impl Point2 {
         self.y.atan2(self.x)
     }
 
+    /// The point turned by `angle_rad` about the origin (any angle, not
+    /// wrapped first).
+    pub fn rotated(self, angle_rad: f64) -> Self {
+        let (s, c) = angle_rad.sin_cos();
+        Self::new(c * self.x - s * self.y, s * self.x + c * self.y)
+    }
+
     /// The point at `range` along `bearing_rad` from the origin.
     pub fn from_polar(range: f64, bearing_rad: f64) -> Self {
         Self::new(range * bearing_rad.cos(), range * bearing_rad.sin())
@@ -102,8 +109,7 @@ impl Pose2 {
 
     /// Maps a direction (no translation) from frame `b` into frame `a`.
     pub fn rotate_vector(&self, v: Point2) -> Point2 {
-        let (s, c) = self.theta.sin_cos();
-        Point2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+        v.rotated(self.theta)
     }
 
     /// The relative transform `self⁻¹ · other`: for `world_from_a` and
@@ -118,6 +124,59 @@ impl Pose2 {
     pub fn tangent_rotation(&self) -> Matrix3<f64> {
         let (s, c) = self.theta.sin_cos();
         Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+    }
+
+    /// A covariance of `(x, y, θ)` given in this pose's frame, in its
+    /// parent's: `R · Σ · Rᵀ` with `R` the [`Pose2::tangent_rotation`].
+    pub fn rotate_covariance(&self, covariance: &Matrix3<f64>) -> Matrix3<f64> {
+        let r = self.tangent_rotation();
+        r * covariance * r.transpose()
+    }
+
+    /// A covariance of `(x, y, θ)` given in the parent's frame, in this
+    /// pose's: `Rᵀ · Σ · R` (the inverse of [`Pose2::rotate_covariance`]).
+    pub fn unrotate_covariance(&self, covariance: &Matrix3<f64>) -> Matrix3<f64> {
+        let r = self.tangent_rotation();
+        r.transpose() * covariance * r
+    }
+
+    /// The adjoint: `T · Exp(ξ) · T⁻¹ = Exp(Ad(T) · ξ)` for a twist
+    /// `ξ = (vₓ, v_y, ω)`. It carries an error taken on the right of `T`
+    /// (in `T`'s frame) to one on the left (in the parent's).
+    pub fn adjoint(&self) -> Matrix3<f64> {
+        let (s, c) = self.theta.sin_cos();
+        Matrix3::new(c, -s, self.y, s, c, -self.x, 0.0, 0.0, 1.0)
+    }
+
+    /// The Jacobians of `self * other`'s `(x, y, θ)` with respect to
+    /// `self`'s and to `other`'s (each pose moved by adding to its
+    /// components): `(J_self, J_other)`.
+    pub fn compose_jacobians(&self, other: &Pose2) -> (Matrix3<f64>, Matrix3<f64>) {
+        let (s, c) = self.theta.sin_cos();
+        let j_self = Matrix3::new(
+            1.0,
+            0.0,
+            -s * other.x - c * other.y,
+            0.0,
+            1.0,
+            c * other.x - s * other.y,
+            0.0,
+            0.0,
+            1.0,
+        );
+        (j_self, self.tangent_rotation())
+    }
+
+    /// The covariance of `self * other` to first order, the two poses'
+    /// errors independent with covariances `of_self` and `of_other`.
+    pub fn compose_covariance(
+        &self,
+        of_self: &Matrix3<f64>,
+        other: &Pose2,
+        of_other: &Matrix3<f64>,
+    ) -> Matrix3<f64> {
+        let (a, b) = self.compose_jacobians(other);
+        a * of_self * a.transpose() + b * of_other * b.transpose()
     }
 
     /// As a nalgebra isometry, for linear-algebra code.
@@ -192,6 +251,37 @@ mod tests {
         #[test]
         fn between_recovers_relative(a in pose(), b in pose()) {
             prop_assert!(close(&(a * a.between(&b)), &b));
+        }
+
+        /// The composition's Jacobians are its derivatives (central
+        /// differences), and the adjoint moves a small twist from the
+        /// right of a pose to its left.
+        #[test]
+        fn composition_jacobians_and_adjoint_match_differences(a in pose(), b in pose()) {
+            let h = 1e-6;
+            let (ja, jb) = a.compose_jacobians(&b);
+            let ad = a.adjoint();
+            for d in 0..3 {
+                let mut t = [0.0; 3];
+                t[d] = h;
+                let nudge = |p: &Pose2, sign: f64| Pose2::new(p.x + sign * t[0], p.y + sign * t[1], p.theta + sign * t[2]);
+                let diff = |p: Pose2, q: Pose2| [(p.x - q.x) / (2.0 * h), (p.y - q.y) / (2.0 * h), wrap_angle(p.theta - q.theta) / (2.0 * h)];
+                let by_a = diff(nudge(&a, 1.0) * b, nudge(&a, -1.0) * b);
+                let by_b = diff(a * nudge(&b, 1.0), a * nudge(&b, -1.0));
+                let twist = Pose2::new(t[0], t[1], t[2]);
+                let moved = diff(a * twist * a.inverse(), a * twist.inverse() * a.inverse());
+                for r in 0..3 {
+                    prop_assert!((by_a[r] - ja[(r, d)]).abs() < 1e-5, "J_a ({r}, {d})");
+                    prop_assert!((by_b[r] - jb[(r, d)]).abs() < 1e-5, "J_b ({r}, {d})");
+                    prop_assert!((moved[r] - ad[(r, d)]).abs() < 1e-5, "Ad ({r}, {d})");
+                }
+            }
+            let (sa, sb) = (Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.02, 0.003)), Matrix3::identity() * 0.5);
+            let sum = a.compose_covariance(&sa, &b, &sb);
+            prop_assert!((sum - (ja * sa * ja.transpose() + jb * sb * jb.transpose())).norm() < 1e-12);
+            let r = a.tangent_rotation();
+            prop_assert!((a.rotate_covariance(&sb.scale(3.0)) - r * sb.scale(3.0) * r.transpose()).norm() < 1e-12);
+            prop_assert!((a.unrotate_covariance(&a.rotate_covariance(&sa)) - sa).norm() < 1e-12);
         }
 
         /// A small step taken in the pose's frame lands, to first order,

@@ -136,7 +136,7 @@ impl Chain {
             let sigma = graph.edge_covariance(k)?;
             let next = poses[m] * e.measurement;
             // The step's error, taken at its end, in the world frame.
-            let ad = adjoint(&next);
+            let ad = next.adjoint();
             covariance.push(covariance[m] + ad * sigma * ad.transpose());
             poses.push(next);
         }
@@ -160,8 +160,8 @@ impl Chain {
         // E = Dₐ · D_b⁻¹ with D = x_i z x_j⁻¹ (the identity where a loop
         // agrees with dead reckoning).
         let e = a.correction * b.correction.inverse();
-        let ad_da = adjoint(&a.correction);
-        let ad_e = adjoint(&e);
+        let ad_da = a.correction.adjoint();
+        let ad_e = e.adjoint();
         // A step m's world-frame error w moves E by
         // ([m < iₐ] − [m < jₐ]·Ad(Dₐ) + [m < j_b]·Ad(Dₐ) − [m < i_b]·Ad(E))·w:
         // piecewise constant between the four ends.
@@ -182,8 +182,8 @@ impl Chain {
         }
         // The measurements' own noise: zₐ's error enters at x_{iₐ} zₐ, z_b's
         // (inverted) at Dₐ x_{j_b}.
-        let ja = adjoint(&(x[a.from] * a.measurement));
-        let jb = adjoint(&(a.correction * x[b.to]));
+        let ja = (x[a.from] * a.measurement).adjoint();
+        let jb = (a.correction * x[b.to]).adjoint();
         s += ja * a.sigma * ja.transpose() + jb * b.sigma * jb.transpose();
         let (log, _) = log_of([e.x, e.y, e.theta]);
         (Vector3::from(log), s)
@@ -212,13 +212,6 @@ impl Loop {
             correction: x[e.from] * e.measurement * x[e.to].inverse(),
         })
     }
-}
-
-/// The adjoint of an SE(2) pose: `T · Exp(ξ) · T⁻¹ = Exp(Ad(T) ξ)` for a
-/// twist `ξ = (vₓ, v_y, ω)`.
-pub(crate) fn adjoint(t: &Pose2) -> Matrix3<f64> {
-    let (s, c) = t.theta.sin_cos();
-    Matrix3::new(c, -s, t.y, s, c, -t.x, 0.0, 0.0, 1.0)
 }
 
 /// A large clique of the graph whose rows `adjacent` (bit sets over `n`

@@ -165,10 +165,8 @@ fn chordal_positions(
     let known_t = |p: usize| [graph.poses[p].x, graph.poses[p].y];
     for e in &graph.edges {
         let (s, c) = theta[e.from].sin_cos();
-        let z = [
-            c * e.measurement.x - s * e.measurement.y,
-            s * e.measurement.x + c * e.measurement.y,
-        ];
+        let z = e.measurement.translation().rotated(theta[e.from]);
+        let z = [z.x, z.y];
         let o = e.information;
         let rot = [[c, -s], [s, c]];
         // W = R Ω_t Rᵀ.

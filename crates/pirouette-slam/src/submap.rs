@@ -101,9 +101,8 @@ impl Submap {
 
     /// A registration in the anchor's frame in world terms.
     fn to_world(&self, mut reg: Registration) -> Registration {
-        let r = self.anchor.tangent_rotation();
         reg.pose = self.anchor * reg.pose;
-        reg.covariance = r * reg.covariance * r.transpose();
+        reg.covariance = self.anchor.rotate_covariance(&reg.covariance);
         if let Some(rival) = reg.rival.as_mut() {
             rival.pose = self.anchor * rival.pose;
         }

@@ -534,8 +534,7 @@ impl<'c> Mapper<'c> {
     /// A registered pose's covariance (in the world frame) in the frame of
     /// scan `i`'s current pose, with the floors added.
     fn local_covariance(&self, i: usize, covariance: &Matrix3<f64>) -> Matrix3<f64> {
-        let r = self.poses[i].tangent_rotation();
-        r.transpose() * covariance * r + edge_floor()
+        self.poses[i].unrotate_covariance(covariance) + edge_floor()
     }
 
     /// A loop edge `i → j` measuring `j`'s registered pose `pose_j` (with

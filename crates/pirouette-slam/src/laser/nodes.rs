@@ -48,21 +48,8 @@ impl Nodes {
     pub fn step(&mut self, step: &Pose2, covariance: &Matrix3<f64>, pose: Pose2, node: bool) {
         let (z, sigma) = &self.chain;
         // First-order propagation through the composition z ∘ step.
-        let (s, c) = z.theta.sin_cos();
-        let j_z = Matrix3::new(
-            1.0,
-            0.0,
-            -s * step.x - c * step.y,
-            0.0,
-            1.0,
-            c * step.x - s * step.y,
-            0.0,
-            0.0,
-            1.0,
-        );
-        let j_step = z.tangent_rotation();
         let composed = *z * *step;
-        let sigma = j_z * sigma * j_z.transpose() + j_step * covariance * j_step.transpose();
+        let sigma = z.compose_covariance(sigma, step, covariance);
         let last = self.scans.len() - 1;
         if node {
             let edge = MeasuredEdge {

@@ -252,11 +252,9 @@ fn place_in_turn(
 /// into the frame of the first sweep's first frame.
 fn to_first_frame(placed: &mut [Placed]) {
     let origin = placed[0].frame_pose(0).inverse();
-    let (sin, cos) = origin.theta.sin_cos();
-    let rotate = Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
     for p in placed {
         p.pose = origin * p.pose;
-        p.covariance = rotate * p.covariance * rotate.transpose();
+        p.covariance = origin.rotate_covariance(&p.covariance);
         if let Some(prior) = p.prior.as_mut() {
             prior.mean = origin * prior.mean;
         }
@@ -265,7 +263,7 @@ fn to_first_frame(placed: &mut [Placed]) {
             if let Some(r) = reg.rival.as_mut() {
                 r.pose = origin * r.pose;
             }
-            reg.covariance = rotate * reg.covariance * rotate.transpose();
+            reg.covariance = origin.rotate_covariance(&reg.covariance);
         }
     }
 }

@@ -91,15 +91,10 @@ impl Placed {
     /// The sweep's `k`-th frame relative to its pose: turned by its heading
     /// about the pivot, which stays where it is.
     pub(super) fn rel(&self, k: usize) -> Pose2 {
-        let at = |h: f64| {
-            let (sin, cos) = h.sin_cos();
-            [
-                cos * self.pivot[0] - sin * self.pivot[1],
-                sin * self.pivot[0] + cos * self.pivot[1],
-            ]
-        };
+        let pivot = Point2::new(self.pivot[0], self.pivot[1]);
+        let at = |h: f64| pivot.rotated(h);
         let (p0, pk) = (at(self.heading_rad[0]), at(self.heading_rad[k]));
-        Pose2::new(p0[0] - pk[0], p0[1] - pk[1], self.heading_rad[k])
+        Pose2::new(p0.x - pk.x, p0.y - pk.y, self.heading_rad[k])
     }
 
     /// `map_from_robot` of the sweep's `k`-th frame.
