@@ -30,6 +30,8 @@ pub(crate) const TOP_LEVEL: usize = crate::field::POOLED_LEVELS;
 /// A field's pooled levels as a search looks them up.
 pub(crate) struct Pyramid<'f> {
     pub field: &'f LikelihoodField,
+    /// The field's pooled levels ([`LikelihoodField::levels`]).
+    pub levels: &'f [Vec<u8>],
     /// The coarsest level a search starts from.
     pub top: usize,
 }
@@ -47,7 +49,7 @@ impl Pyramid<'_> {
             }
         } else {
             for &(i, j) in cells {
-                s += self.field.pooled(h, i + a, j + b);
+                s += self.field.pooled_in(self.levels, h, i + a, j + b);
             }
         }
         s

@@ -129,13 +129,11 @@ impl PosePrior {
 
     /// The prior's covariance in world `(x, y, θ)`.
     pub fn covariance(&self) -> Matrix3<f64> {
-        let r = self.mean.tangent_rotation();
-        let d = Matrix3::from_diagonal(&Vector3::new(
+        self.mean.rotate_covariance(&Matrix3::from_diagonal(&Vector3::new(
             self.sigma_forward_m.powi(2),
             self.sigma_left_m.powi(2),
             self.sigma_theta_rad.powi(2),
-        ));
-        r * d * r.transpose()
+        )))
     }
 
     /// The log probability density of `pose` (normalised: priors of
@@ -261,7 +259,7 @@ pub enum Covariance {
     Laplace,
 }
 
-/// How [`register`] searches its lattice. Both find the same best pose and
+/// How [`register`] searches its lattice. All find the same best pose and
 /// the same posterior (every pose whose weight counts, scored alike and
 /// summed in the same order); they differ only in time (and, near
 /// [`RegisterConfig::max_spread_poses`], in when they give up).
@@ -271,8 +269,13 @@ pub enum Search {
     Exhaustive,
     /// Score blocks of poses by an upper bound first and drop those that
     /// cannot count (max-pooled levels of the field bound each block).
-    #[default]
     BranchAndBound,
+    /// Branch and bound, but where the whole posterior is sought
+    /// ([`Covariance::Posterior`]) on a field whose pooled levels are not
+    /// made yet and scoring every pose looks up fewer cells than making
+    /// them would write, every pose (a small window on a wide field).
+    #[default]
+    Cheaper,
 }
 
 impl Default for RegisterConfig {
@@ -296,7 +299,7 @@ impl Default for RegisterConfig {
             max_window_m: 1.0,
             min_matched: 10,
             spacing_m: 0.03,
-            search: Search::BranchAndBound,
+            search: Search::Cheaper,
             rival_apart_m: 0.0,
             rival_apart_rad: 0.0,
             rival_gap_ln: 10.0,
@@ -391,7 +394,7 @@ pub fn register(
     let cells_at = |kt: i64| lattice.cells_at(&points, kt);
     let search = match config.search {
         Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at),
-        Search::BranchAndBound => bounded(field, &lattice, nt, &cells_at),
+        Search::BranchAndBound | Search::Cheaper => bounded(field, &lattice, nt, &cells_at),
     };
     let Some(mut search) = search else {
         return Ok(fallback(field.floor() as f64, 0, 0));
@@ -769,7 +772,11 @@ impl Lattice<'_> {
     fn pyramid<'f>(&self, field: &'f LikelihoodField) -> Pyramid<'f> {
         let side = (2 * self.nx.max(self.ny) + 1) as u64;
         let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
-        Pyramid { field, top }
+        Pyramid {
+            field,
+            levels: field.levels(),
+            top,
+        }
     }
 }
 

@@ -3,6 +3,7 @@
 use crate::floor_i64;
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
+use std::sync::OnceLock;
 
 /// Per-cell log-likelihood of a profile endpoint falling there: a Gaussian
 /// in the distance to the nearest mapped obstacle point, mixed with a
@@ -29,9 +30,10 @@ use pirouette_grid::OccupancyGrid;
 /// time).
 ///
 /// # Memory
-/// About 8 bytes per cell of the points' extent (plus a border of `3σ`):
-/// value, seen floor and four pooled levels (four more, the squared
-/// distances, in a field that grows); and 16 bytes per point.
+/// About 5 bytes per cell of the points' extent (plus a border of `3σ`):
+/// value and seen floor; four more once a branch and bound asks for the
+/// pooled levels, four more (the squared distances) in a field that
+/// grows; and 16 bytes per point.
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
     /// The obstacle points, bucketed for nearest-point queries.
@@ -56,8 +58,10 @@ pub struct LikelihoodField {
     /// The max-pooled levels `1..=POOLED_LEVELS` (index 0 unused; see
     /// [`LikelihoodField::pooled`]): per cell from `−PAD`, the largest
     /// value over the block of `2ʰ` cells a side starting there, quantised
-    /// upward to a byte.
-    levels: Vec<Vec<u8>>,
+    /// upward to a byte. Made when a branch and bound first asks for them
+    /// (a registration that scores every pose never does), then kept as
+    /// the field grows.
+    levels: OnceLock<Vec<Vec<u8>>>,
     /// The quantisation's lowest value and step (see [`LikelihoodField::quantum`]).
     lowest: f64,
     step: f64,
@@ -206,7 +210,6 @@ impl LikelihoodField {
                 (false, _) => field.value_of(field.d2[k], free),
             };
         }
-        field.pool_all();
         field.points.add(&points);
         // Kept only by a field that grows (see `insert`).
         field.d2 = Vec::new();
@@ -229,7 +232,7 @@ impl LikelihoodField {
             values: Vec::new(),
             d2: Vec::new(),
             free: Vec::new(),
-            levels: vec![Vec::new(); POOLED_LEVELS + 1],
+            levels: OnceLock::new(),
             lowest: 0.0,
             step: 1.0,
             floor: epsilon.ln() as f32,
@@ -283,9 +286,6 @@ impl LikelihoodField {
             };
             let margin = GROWTH_MARGIN_CELLS.max((hi.0 - lo.0) / 8).max((hi.1 - lo.1) / 8);
             self.resize(((lo.0 - margin, lo.1 - margin), (hi.0 + margin, hi.1 + margin)));
-            if self.levels[1].is_empty() {
-                self.pool_all();
-            }
         }
         for p in &points {
             let rect = self.stamp(p);
@@ -346,23 +346,25 @@ impl LikelihoodField {
             && lo.1 <= self.min_cell.1
             && hi.0 >= self.min_cell.0 + self.width as i64 - 1
             && hi.1 >= self.min_cell.1 + self.height as i64 - 1;
-        if holds_old && !self.levels[1].is_empty() {
-            let (old_w, old_h) = self.level_dims();
-            let new_w = width + PAD as usize;
-            let (dx, dy) = (
-                (self.min_cell.0 - lo.0) as usize,
-                (self.min_cell.1 - lo.1) as usize,
-            );
-            for level in self.levels.iter_mut().filter(|l| !l.is_empty()) {
-                let mut moved = vec![self.floor_q; new_w * (height + PAD as usize)];
-                for y in 0..old_h {
-                    let to = (y + dy) * new_w + dx;
-                    moved[to..to + old_w].copy_from_slice(&level[y * old_w..(y + 1) * old_w]);
+        let (old_w, old_h) = self.level_dims();
+        let floor_q = self.floor_q;
+        match self.levels.get_mut() {
+            Some(levels) if holds_old => {
+                let new_w = width + PAD as usize;
+                let (dx, dy) = (
+                    (self.min_cell.0 - lo.0) as usize,
+                    (self.min_cell.1 - lo.1) as usize,
+                );
+                for level in levels.iter_mut().filter(|l| !l.is_empty()) {
+                    let mut moved = vec![floor_q; new_w * (height + PAD as usize)];
+                    for y in 0..old_h {
+                        let to = (y + dy) * new_w + dx;
+                        moved[to..to + old_w].copy_from_slice(&level[y * old_w..(y + 1) * old_w]);
+                    }
+                    *level = moved;
                 }
-                *level = moved;
             }
-        } else {
-            self.levels.iter_mut().for_each(Vec::clear);
+            _ => self.levels = OnceLock::new(),
         }
         self.min_cell = lo;
         (self.width, self.height) = (width, height);
@@ -464,21 +466,28 @@ impl LikelihoodField {
         (self.width + PAD as usize, self.height + PAD as usize)
     }
 
-    /// Level `h`'s stored value at storage cell `(x, y)` (the floor's
-    /// where the block lies wholly beyond the lattice).
-    #[inline]
-    fn level_at(&self, h: usize, x: i64, y: i64) -> u8 {
-        let (px, py) = (x + PAD, y + PAD);
+    /// The pooled levels (see [`LikelihoodField::pooled`]), made now if
+    /// not yet.
+    pub(crate) fn levels(&self) -> &[Vec<u8>] {
+        self.levels.get_or_init(|| self.pool_all())
+    }
+
+    /// Whether the pooled levels are made (a branch and bound has asked
+    /// for them).
+    pub(crate) fn has_levels(&self) -> bool {
+        self.levels.get().is_some()
+    }
+
+    /// The cells each pooled level holds (what making them costs, per
+    /// level).
+    pub(crate) fn level_cells(&self) -> usize {
         let (w, ht) = self.level_dims();
-        if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < ht {
-            self.levels[h][py as usize * w + px as usize]
-        } else {
-            self.floor_q
-        }
+        w * ht
     }
 
     /// Every pooled level made anew (from the lattice quantised).
-    fn pool_all(&mut self) {
+    fn pool_all(&self) -> Vec<Vec<u8>> {
+        let mut levels = vec![Vec::new(); POOLED_LEVELS + 1];
         let (w, ht) = self.level_dims();
         let mut q = vec![self.floor_q; w * ht];
         for y in 0..self.height {
@@ -490,7 +499,7 @@ impl LikelihoodField {
         }
         for h in 1..=POOLED_LEVELS {
             let half = 1usize << (h - 1);
-            let below = if h == 1 { &q } else { &self.levels[h - 1] };
+            let below = if h == 1 { &q } else { &levels[h - 1] };
             let mut level = vec![self.floor_q; w * ht];
             for y in 0..ht {
                 let row = &below[y * w..][..w];
@@ -513,8 +522,9 @@ impl LikelihoodField {
                     out[x] = m;
                 }
             }
-            self.levels[h] = level;
+            levels[h] = level;
         }
+        levels
     }
 
     /// The levels made anew where a rectangle of the lattice that changed
@@ -525,13 +535,16 @@ impl LikelihoodField {
             return;
         };
         let (w, ht) = self.level_dims();
+        let Some(levels) = self.levels.get_mut() else {
+            return;
+        };
         let pad = PAD as usize;
         // In padded coordinates from here.
         let (x_hi, y_hi) = (x_hi + pad, y_hi + pad);
         for h in 1..=POOLED_LEVELS {
             let half = 1usize << (h - 1);
             let back = (1usize << h) - 1;
-            let (lower, upper) = self.levels.split_at_mut(h);
+            let (lower, upper) = levels.split_at_mut(h);
             let (below, level) = (&lower[h - 1], &mut upper[0]);
             // Level 0 is the lattice's values quantised.
             let (values, width, height) = (&self.values, self.width, self.height);
@@ -568,11 +581,25 @@ impl LikelihoodField {
     /// step of the levels' quantisation. At `h = 0`,
     /// [`LikelihoodField::cell`].
     #[inline]
+    #[cfg(test)]
     pub(crate) fn pooled(&self, h: usize, i: i64, j: i64) -> f32 {
+        self.pooled_in(self.levels(), h, i, j)
+    }
+
+    /// [`LikelihoodField::pooled`] with the field's `levels` (from
+    /// [`LikelihoodField::levels`]) at hand.
+    #[inline]
+    pub(crate) fn pooled_in(&self, levels: &[Vec<u8>], h: usize, i: i64, j: i64) -> f32 {
         if h == 0 {
             return self.cell(i, j);
         }
-        let q = self.level_at(h, i - self.min_cell.0, j - self.min_cell.1);
+        let (px, py) = (i - self.min_cell.0 + PAD, j - self.min_cell.1 + PAD);
+        let (w, ht) = self.level_dims();
+        let q = if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < ht {
+            levels[h][py as usize * w + px as usize]
+        } else {
+            self.floor_q
+        };
         (self.lowest + q as f64 * self.step) as f32 + f32::EPSILON
     }
 

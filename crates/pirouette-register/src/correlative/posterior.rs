@@ -7,6 +7,7 @@
 //! spread here, which Laplace's curvature at one peak does not.
 
 use super::*;
+use crate::field::POOLED_LEVELS;
 
 /// Registers the endpoints of a sweep (`points_robot`, in the sweep's own
 /// frame) against the map's likelihood field, starting from `prior`.
@@ -37,9 +38,22 @@ pub(super) fn register_posterior(
     // posterior weight counts.
     let (lattice, nt) = Lattice::around(prior, &points, res, config);
     let cells_at = |kt: i64| lattice.cells_at(&points, kt);
-    let found = match config.search {
-        Search::Exhaustive => exhaustive_posterior(field, &lattice, nt, &cells_at, config.max_spread_poses),
-        Search::BranchAndBound => bounded_posterior(field, &lattice, nt, &cells_at, config.max_spread_poses),
+    // Both searches keep the same poses. Branch and bound needs the
+    // field's pooled levels: where they are not made yet and scoring every
+    // pose looks up fewer cells than making them would write, every pose
+    // is scored (a small window over a wide field: a camera's frame).
+    let poses = (2 * lattice.nx + 1) * (2 * lattice.ny + 1) * (2 * nt + 1);
+    let scoring_all = (poses as u64).saturating_mul(points.len() as u64);
+    let making_levels = (field.level_cells() * POOLED_LEVELS) as u64;
+    let exhaustive = match config.search {
+        Search::Exhaustive => true,
+        Search::BranchAndBound => false,
+        Search::Cheaper => !field.has_levels() && scoring_all <= making_levels,
+    };
+    let found = if exhaustive {
+        exhaustive_posterior(field, &lattice, nt, &cells_at, config.max_spread_poses)
+    } else {
+        bounded_posterior(field, &lattice, nt, &cells_at, config.max_spread_poses)
     };
     let (kept, evaluated) = match found {
         Found::Poses(kept, evaluated) => (kept, evaluated),

@@ -51,7 +51,7 @@ fn seen_from(world: &[Point2], pose: &Pose2, max_range: f64, noise_m: f64, seed:
 #[test]
 fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let (mut cases, mut scored, mut all, mut rivals) = (0, 0, 0, 0);
+    let (mut cases, mut scored, mut all, mut rivals, mut every_pose) = (0, 0, 0, 0, 0);
     for case in 0..24 {
         let mut world = Vec::new();
         for _ in 0..rng.random_range(2..7) {
@@ -98,11 +98,22 @@ fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
             search,
             ..RegisterConfig::default()
         };
+        // The cheaper first, while the field has no pooled levels yet.
+        let cheaper = register(&field, &seen, &prior, &search(Search::Cheaper)).unwrap();
         let full = register(&field, &seen, &prior, &search(Search::Exhaustive)).unwrap();
         let fast = register(&field, &seen, &prior, &search(Search::BranchAndBound)).unwrap();
         if full.evaluated == 0 {
             continue;
         }
+        assert_eq!(
+            Registration {
+                evaluated: full.evaluated,
+                ..cheaper
+            },
+            full,
+            "case {case}: the cheaper search"
+        );
+        every_pose += usize::from(cheaper.evaluated == full.evaluated);
         assert_eq!(
             Registration {
                 evaluated: full.evaluated,
@@ -121,6 +132,12 @@ fn branch_and_bound_finds_what_the_exhaustive_search_finds() {
     // (The field's pooled levels bound aligned blocks, up to twice as wide
     // as a search's block, and the rival is sought 10 nats down: an eighth.)
     assert!(scored * 5 < all, "{scored} of {all} poses scored");
+    // The cheaper search scored every pose somewhere (a field without
+    // levels, a small window), not everywhere.
+    assert!(
+        (1..cases).contains(&every_pose),
+        "every pose scored in {every_pose} of {cases} cases"
+    );
 }
 
 #[test]
