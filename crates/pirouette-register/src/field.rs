@@ -583,24 +583,50 @@ impl LikelihoodField {
     #[inline]
     #[cfg(test)]
     pub(crate) fn pooled(&self, h: usize, i: i64, j: i64) -> f32 {
-        self.pooled_in(self.levels(), h, i, j)
-    }
-
-    /// [`LikelihoodField::pooled`] with the field's `levels` (from
-    /// [`LikelihoodField::levels`]) at hand.
-    #[inline]
-    pub(crate) fn pooled_in(&self, levels: &[Vec<u8>], h: usize, i: i64, j: i64) -> f32 {
         if h == 0 {
             return self.cell(i, j);
         }
         let (px, py) = (i - self.min_cell.0 + PAD, j - self.min_cell.1 + PAD);
         let (w, ht) = self.level_dims();
         let q = if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < ht {
-            levels[h][py as usize * w + px as usize]
+            self.levels()[h][py as usize * w + px as usize]
         } else {
             self.floor_q
         };
         (self.lowest + q as f64 * self.step) as f32 + f32::EPSILON
+    }
+
+    /// At least the sum, in `f32` in any order, of the lattice values of
+    /// `cells` each moved by `(a, b)` and then by any offset within the
+    /// block of side `2ʰ` (`h ≥ 1`): level `h`'s bytes summed as integers,
+    /// turned into a value once, plus the most that summing `n` values of
+    /// magnitude at most `|lowest|` in `f32` can add by rounding.
+    #[inline]
+    pub(crate) fn pooled_sum(
+        &self,
+        levels: &[Vec<u8>],
+        h: usize,
+        cells: &[(i64, i64)],
+        a: i64,
+        b: i64,
+    ) -> f32 {
+        let (w, ht) = self.level_dims();
+        let level = &levels[h];
+        let (dx, dy) = (a - self.min_cell.0 + PAD, b - self.min_cell.1 + PAD);
+        let mut q: u64 = 0;
+        for &(i, j) in cells {
+            let (px, py) = (i + dx, j + dy);
+            q += u64::from(if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < ht {
+                level[py as usize * w + px as usize]
+            } else {
+                self.floor_q
+            });
+        }
+        let n = cells.len() as f64;
+        // Summing n terms in f32 errs by at most (n − 1)·2⁻²⁴ of their
+        // magnitudes' sum: twice that, to spare.
+        let rounding = n * n * self.lowest.abs() * f64::from(f32::EPSILON);
+        ((n * self.lowest + q as f64 * self.step + rounding) as f32).next_up()
     }
 
     /// Cell side, metres.
@@ -1164,6 +1190,35 @@ mod tests {
                 assert!(
                     bound >= most && bound <= most + step,
                     "level {h} at ({i}, {j}): {bound} for {most}"
+                );
+            }
+            // A level's sum over many cells bounds their f32 sum at every
+            // offset within the block, and exceeds the sum of each cell's
+            // own largest value in the block by little more than a step each.
+            for _ in 0..40 {
+                let h = rng.random_range(1..=POOLED_LEVELS);
+                let cells: Vec<(i64, i64)> = (0..rng.random_range(1..300))
+                    .map(|_| (rng.random_range(-300..300i64), rng.random_range(-300..200i64)))
+                    .collect();
+                let (a, b) = (rng.random_range(-20..20i64), rng.random_range(-20..20i64));
+                let side = 1i64 << h;
+                let most = (0..side)
+                    .flat_map(|v| (0..side).map(move |u| (u, v)))
+                    .map(|(u, v)| {
+                        cells
+                            .iter()
+                            .map(|&(i, j)| field.cell(i + a + u, j + b + v))
+                            .sum::<f32>()
+                    })
+                    .fold(f32::NEG_INFINITY, f32::max);
+                let own: f64 = (cells.iter())
+                    .map(|&(i, j)| f64::from(field.pooled(h, i + a, j + b)))
+                    .sum();
+                let bound = field.pooled_sum(field.levels(), h, &cells, a, b);
+                assert!(
+                    bound >= most && f64::from(bound) <= own + cells.len() as f64 * 1e-3,
+                    "level {h}, {} cells: {bound} for {most}",
+                    cells.len()
                 );
             }
         }
