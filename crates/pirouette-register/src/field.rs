@@ -626,7 +626,9 @@ impl LikelihoodField {
         // Summing n terms in f32 errs by at most (n − 1)·2⁻²⁴ of their
         // magnitudes' sum: twice that, to spare.
         let rounding = n * n * self.lowest.abs() * f64::from(f32::EPSILON);
-        ((n * self.lowest + q as f64 * self.step + rounding) as f32).next_up()
+        let sum = n * self.lowest + q as f64 * self.step + rounding;
+        // Rounding to the nearest f32 moves it by at most half of this.
+        (sum + sum.abs() * f64::from(f32::EPSILON)) as f32
     }
 
     /// Cell side, metres.
