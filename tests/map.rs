@@ -223,6 +223,80 @@ fn faint_steps_add_walls_to_the_grid_and_leave_registration_alone() {
     );
 }
 
+/// The one entry takes a camera dataset and a laser log alike: it reports
+/// as many steps of each stage as its input said it would, and returns
+/// the map of the input's sensor; bad settings are refused before any
+/// image is read.
+#[test]
+fn the_one_entry_maps_either_sensor_and_reports_the_work_it_announced() {
+    use pirouette::pipeline::Stage;
+    use pirouette::slam::{map, Config, Input, MapOutput, Sensor};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let count = |input: Input, config: &Config| {
+        let heard = [AtomicUsize::new(0), AtomicUsize::new(0), AtomicUsize::new(0)];
+        let work = input.work(config).unwrap();
+        let out = map(input, config, &|stage| {
+            let k = match stage {
+                Stage::Profiled => 0,
+                Stage::Placed => 1,
+                Stage::Scan => 2,
+            };
+            heard[k].fetch_add(1, Ordering::Relaxed);
+        })
+        .unwrap();
+        let heard = heard.map(|h| h.into_inner());
+        (work, heard, out)
+    };
+    // A single pirouette: one sweep, its refinement passes, the joint step.
+    let camera = Input::open(&rendered("field-pirouette", 17)).unwrap();
+    assert_eq!(camera.sensor(), Sensor::Camera);
+    let (work, heard, out) = count(camera, &Config::default());
+    assert_eq!(heard, [work.profiled, work.placed, 0]);
+    assert_eq!(work.placed, pirouette::mapping::progress_steps(1));
+    let MapOutput::Camera { dataset, mapped } = out else {
+        panic!("a camera dataset mapped as a laser log");
+    };
+    assert_eq!(mapped.map.frame_poses.len(), dataset.manifest.frames.len());
+    assert_eq!(work.profiled, dataset.manifest.frames.len());
+
+    // A simulated CARMEN log, its scans counted before the run.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("ring.log");
+    let path = crate::util::ring_path(3, 0.25, 3, 30.0);
+    let sim = pirouette::sim::LogSim::sick();
+    let mut text = Vec::new();
+    sim.write(
+        &mut text,
+        &pirouette::sim::Walls::ring(),
+        path.iter().copied(),
+        |_| false,
+        2,
+    )
+    .unwrap();
+    std::fs::write(&log, text).unwrap();
+    let laser = Input::open(&log).unwrap();
+    assert_eq!(laser.sensor(), Sensor::Laser);
+    let (work, heard, out) = count(laser, &Config::default());
+    assert_eq!(work.scans, Some(path.len()));
+    assert_eq!(heard, [0, 0, path.len()]);
+    let MapOutput::Laser(out) = out else {
+        panic!("a laser log mapped as a camera dataset");
+    };
+    assert!(out.grid.is_ok() && out.coarsened.is_none());
+    assert_eq!(out.registered.every_scan().len(), path.len());
+
+    // A far reach short of the soft limit: refused before any image.
+    let mut config = Config::default();
+    config.camera.map.far_reach = 0.5;
+    let camera = Input::open(&rendered("field-pirouette", 17)).unwrap();
+    let err = map(camera, &config, &|stage| {
+        panic!("{stage:?} heard: the settings were not checked first")
+    })
+    .err()
+    .expect("refused");
+    assert!(err.to_string().contains("far reach 0.5"), "{err}");
+}
+
 #[test]
 fn a_single_pirouette_anchors_its_frames_on_each_other() {
     // No other sweep to register against: the frames' headings come from
@@ -315,7 +389,7 @@ fn map_and_eval_refuse_bad_input_with_the_file_named() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("--far-reach 0.5"), "{err}");
+    assert!(err.contains("far reach 0.5"), "{err}");
 }
 
 /// A dataset whose motions are general moves, as odometry gives them

@@ -1,16 +1,16 @@
 //! `pirouette map LOG` for laser logs, and `pirouette eval laser`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use pirouette::eval::laser::{evaluate_laser, LaserScores};
 use pirouette::eval::relations::{score_relations, MATCH_WINDOW_S};
 use pirouette::geom::Pose2;
 use pirouette::grid::{OccupancyGrid, RosMap};
-use pirouette::io::bag::{log_kind, LogKind};
 use pirouette::io::{
-    map_names, read_relations, read_tum, write_map_files, write_pose_graph, write_tum, BagOptions,
-    OdometrySource, PoseRecord,
+    map_names, read_relations, read_tum, write_map_files, write_pose_graph, write_tum, OdometrySource,
+    PoseRecord,
 };
-use pirouette::laser::{count_scans, fitted_grid, grid_of_log, register_log, LaserConfig, RegisteredLog};
+use pirouette::laser::{LaserConfig, RegisteredLog};
+use pirouette::slam::LaserOutput;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -26,34 +26,25 @@ fn peak_memory_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Maps a laser log into `out`, with a progress bar and a summary.
-pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Result<()> {
-    pirouette::laser::check_config(config)?;
-    super::check_output_dir(out)?;
-    let start = Instant::now();
-    // A CARMEN log is counted first (cheap); a bag's count shows as it is read.
-    let bar = match log_kind(log)?.0 {
-        LogKind::Carmen => super::progress(count_scans(log, bag)?, "register"),
-        _ => super::progress(0, "scans read"),
+/// Writes a mapped laser log into `out` and sums it up on stdout: the
+/// poses first, so that whatever befell the grid the registration's work
+/// is kept; `start` is when the run began.
+pub fn write_and_report(
+    mapped: &LaserOutput,
+    config: &LaserConfig,
+    out: &Path,
+    start: Instant,
+) -> Result<()> {
+    let (log, r) = (&mapped.log, &mapped.registered);
+    write_poses(log, r, out)?;
+    let grid = match &mapped.grid {
+        Ok(grid) => grid,
+        Err(e) => bail!("{e}; the poses are written to {}, the map is not", out.display()),
     };
-    let r = register_log(log, config, bag, &|| bar.inc(1))?;
-    bar.finish_and_clear();
-    // The poses first: whatever befalls the grid, the registration's work
-    // is kept.
-    write_poses(log, &r, out)?;
-    let kept = || {
-        format!(
-            "{}: the poses are written to {}, the map is not",
-            log.display(),
-            out.display()
-        )
-    };
-    let (grid_config, coarsened) = fitted_grid(&r, config).with_context(kept)?;
-    if let Some(w) = &coarsened {
+    if let Some(w) = &mapped.coarsened {
         eprintln!("warning: {}: {w}", log.display());
     }
-    let grid = grid_of_log(log, &r, bag, config, &grid_config).with_context(kept)?;
-    write_map(log, &r, &grid, out)?;
+    write_map(log, r, grid, out)?;
     let seconds = start.elapsed().as_secs_f64();
     let scans = &r.scans;
     let unregistered = scans.iter().filter(|s| !s.registered).count();
@@ -140,7 +131,7 @@ pub fn map(log: &Path, out: &Path, config: &LaserConfig, bag: &BagOptions) -> Re
     if none > 0 {
         outln!("{none} steps had no odometry in the log and were matched under each motion the robot may have made")?;
     }
-    let ros = RosMap::from_grid(&grid);
+    let ros = RosMap::from_grid(grid);
     outln!(
         "map {} × {} cells of {} cm written to {} (look at {})",
         ros.width,

@@ -7,11 +7,10 @@ use pirouette::eval::map::{
 };
 use pirouette::geom::Pose2;
 use pirouette::grid::{GridConfig, RosMap, BYTES_PER_CELL};
-use pirouette::io::Motion;
-use pirouette::io::{map_names, write_map_dir, Dataset, PoseRecord};
-use pirouette::mapping::{progress_steps, MapConfig, MapRun, SweepPose};
+use pirouette::io::{map_names, write_map_dir, BagOptions, Dataset, PoseRecord};
+use pirouette::mapping::{MapConfig, MapRun, SweepPose};
 use pirouette::pipeline::{self, Mapped, PipelineConfig, Stage, Swept};
-use pirouette::slam::Sensor;
+use pirouette::slam::{Config, Input, MapOutput, Sensor, Work};
 use std::path::{Path, PathBuf};
 
 /// Settings of mapping.
@@ -61,10 +60,44 @@ impl MapOptions {
         if self.max_map_mb == 0 {
             bail!("--max-map-mb 0: the map needs some memory");
         }
-        if !(self.far_reach.is_finite() && self.far_reach >= 1.0) {
-            bail!("--far-reach {} is not a factor of at least 1", self.far_reach);
-        }
         Ok(())
+    }
+
+    /// The settings of a map of `input`: a laser log takes only the
+    /// grid's settings (a camera's given for it is refused, not ignored),
+    /// and a camera dataset no bag topic.
+    fn config(&self, input: &Input, bag: BagOptions) -> Result<Config> {
+        let mut config = Config::default();
+        match input {
+            Input::Laser(log) => {
+                let camera_only = MapOptions {
+                    resolution: None,
+                    max_map_mb: MapOptions::default().max_map_mb,
+                    ..self.clone()
+                };
+                if camera_only != MapOptions::default() {
+                    bail!(
+                        "{} is a laser log: of the map settings only --resolution and --max-map-mb apply to it (the others are a camera's)",
+                        log.display()
+                    );
+                }
+                if let Some(r) = self.resolution {
+                    config.laser.grid.resolution_m = r;
+                }
+                config.laser.grid.max_cells = self.max_cells();
+                config.bag = bag;
+            }
+            Input::Camera(ds) => {
+                if bag.scan_topic.is_some() || bag.odom_topic.is_some() {
+                    bail!(
+                        "--scan-topic and --odom-topic are a bag's; {} is a camera dataset",
+                        ds.manifest_path().display()
+                    );
+                }
+                config.camera = self.pipeline()?;
+            }
+        }
+        Ok(config)
     }
 
     /// The grid's cell budget of `--max-map-mb`.
@@ -156,34 +189,75 @@ pub fn sweep_dataset(ds: &Dataset, options: &MapOptions) -> Result<(Swept, MapCo
     Ok((swept, map_config))
 }
 
-/// Maps a dataset with a progress bar per stage.
-pub fn map_dataset(ds: &Dataset, options: &MapOptions) -> Result<Mapped> {
-    let config = options.pipeline()?;
-    // A sweep starts at every frame not reached by a turn.
-    let sweeps = ds
-        .manifest
-        .frames
-        .iter()
-        .filter(|f| !matches!(f.motion, Some(Motion::Turn { .. })))
-        .count();
-    let profile = super::progress(ds.manifest.frames.len(), "profile");
-    // One step per sweep placed, per refinement pass and for the joint
-    // adjustment: counted as steps, not sweeps.
-    let register = super::progress(progress_steps(sweeps), "map steps");
-    register.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    let mapped = pipeline::map_dataset(ds, &config, &|stage| match stage {
-        Stage::Profiled => profile.inc(1),
-        Stage::Placed => {
-            if !profile.is_finished() {
-                profile.finish_and_clear();
-                register.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+/// The progress bars of a map: a camera's frames profiled, then its map's
+/// steps; a laser log's scans (counted where that is cheap).
+struct Bars {
+    first: indicatif::ProgressBar,
+    then: indicatif::ProgressBar,
+}
+
+impl Bars {
+    fn new(work: &Work, sensor: Sensor) -> Self {
+        let (first, then) = match sensor {
+            Sensor::Camera => (
+                super::progress(work.profiled, "profile"),
+                super::progress(work.placed, "map steps"),
+            ),
+            Sensor::Laser => (
+                match work.scans {
+                    Some(n) => super::progress(n, "register"),
+                    None => super::progress(0, "scans read"),
+                },
+                indicatif::ProgressBar::hidden(),
+            ),
+        };
+        then.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        Self { first, then }
+    }
+
+    /// One step of a stage: the second bar shows once its stage begins.
+    fn report(&self, stage: Stage) {
+        match stage {
+            Stage::Profiled | Stage::Scan => self.first.inc(1),
+            Stage::Placed => {
+                if !self.first.is_finished() {
+                    self.first.finish_and_clear();
+                    self.then.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                }
+                self.then.inc(1)
             }
-            register.inc(1)
         }
-    })?;
-    profile.finish_and_clear();
-    register.finish_and_clear();
-    Ok(mapped)
+    }
+
+    fn finish(&self) {
+        self.first.finish_and_clear();
+        self.then.finish_and_clear();
+    }
+}
+
+/// Opens a map's input, a camera dataset's warnings said.
+fn open_input(path: &Path) -> Result<Input> {
+    let input = Input::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    if let Input::Camera(ds) = &input {
+        for w in &ds.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    Ok(input)
+}
+
+/// Maps a camera dataset with a progress bar per stage; the dataset back
+/// with its map.
+pub fn map_dataset(ds: Dataset, options: &MapOptions) -> Result<(Dataset, Mapped)> {
+    let input = Input::Camera(Box::new(ds));
+    let config = options.config(&input, BagOptions::default())?;
+    let bars = Bars::new(&input.work(&config)?, Sensor::Camera);
+    let output = pirouette::slam::map(input, &config, &|stage| bars.report(stage));
+    bars.finish();
+    match output? {
+        MapOutput::Camera { dataset, mapped } => Ok((*dataset, *mapped)),
+        MapOutput::Laser(_) => bail!("a camera dataset gave a laser log's map"),
+    }
 }
 
 /// Writes the map folder of a mapped dataset.
@@ -242,40 +316,28 @@ pub fn evaluate(
 /// `pirouette map`.
 pub fn map(a: MapArgs) -> Result<()> {
     a.options.check()?;
-    if Sensor::of(&a.dataset) == Sensor::Laser {
-        // Only the grid's settings apply to a laser log.
-        let camera_only = MapOptions {
-            resolution: None,
-            max_map_mb: MapOptions::default().max_map_mb,
-            ..a.options.clone()
-        };
-        if camera_only != MapOptions::default() {
-            bail!(
-                "{} is a laser log: of the map settings only --resolution and --max-map-mb apply to it (the others are a camera's)",
-                a.dataset.display()
-            );
-        }
-        let mut config = pirouette::laser::LaserConfig::default();
-        if let Some(r) = a.options.resolution {
-            config.grid.resolution_m = r;
-        }
-        config.grid.max_cells = a.options.max_cells();
-        let bag = pirouette::io::BagOptions {
-            scan_topic: a.scan_topic,
-            odom_topic: a.odom_topic,
-        };
-        return super::laser::map(&a.dataset, &a.out, &config, &bag);
-    }
-    if a.scan_topic.is_some() || a.odom_topic.is_some() {
-        bail!(
-            "--scan-topic and --odom-topic are a bag's; {} is a camera dataset",
-            a.dataset.display()
-        );
-    }
-    let ds = open_camera_dataset(&a.dataset)?;
+    let input = open_input(&a.dataset)?;
+    let bag = BagOptions {
+        scan_topic: a.scan_topic,
+        odom_topic: a.odom_topic,
+    };
+    let config = a.options.config(&input, bag)?;
     super::check_output_dir(&a.out)?;
-    let mapped = map_dataset(&ds, &a.options)?;
-    write_map(&ds, &mapped, &a.out)?;
+    let start = std::time::Instant::now();
+    let bars = Bars::new(&input.work(&config)?, input.sensor());
+    let output = pirouette::slam::map(input, &config, &|stage| bars.report(stage));
+    bars.finish();
+    match output? {
+        MapOutput::Laser(out) => super::laser::write_and_report(&out, &config.laser, &a.out, start),
+        MapOutput::Camera { dataset, mapped } => {
+            write_map(&dataset, &mapped, &a.out)?;
+            report_camera(&mapped, &a.out)
+        }
+    }
+}
+
+/// What a camera map found, on stdout.
+fn report_camera(mapped: &Mapped, out: &Path) -> Result<()> {
     let [px, py] = mapped.config.sweep.matching.pivot_m;
     outln!(
         "the robot turns about ({:+.1}, {:+.1}) mm from its centre (x forward, y left), as its verified turns measure it",
@@ -291,8 +353,8 @@ pub fn map(a: MapArgs) -> Result<()> {
         ros.width,
         ros.height,
         ros.resolution_m * 100.0,
-        a.out.display(),
-        a.out.join(map_names::PNG).display()
+        out.display(),
+        out.join(map_names::PNG).display()
     )?;
     Ok(())
 }

@@ -157,7 +157,7 @@ pub fn example(a: ExampleArgs) -> Result<()> {
 
     // Verified turns, sweeps and the map, on fine profiles.
     let options = super::map::MapOptions::default();
-    let mapped = super::map::map_dataset(&ds, &options)?;
+    let (ds, mapped) = super::map::map_dataset(ds, &options)?;
     if let Some(tally) = tally_sweeps(&ds, &mapped.swept.sweeps) {
         let t = tally.scores();
         outln!(

@@ -4,6 +4,8 @@
 //! the places seen, joined in a pose graph and fused into one occupancy
 //! grid.
 //!
+//! - [`map`]: the one entry, for either sensor's [`Input`]: settings
+//!   checked, the map made, [`MapOutput`] returned to be written.
 //! - [`frame`]: the sensor-neutral input: a frame per camera image or
 //!   laser scan, and a camera dataset's sweeps ([`frame::DatasetSweep`]).
 //! - [`pipeline`]: a camera dataset's run: profiles, verified turns and
@@ -19,18 +21,22 @@
 //!   anchor pose that the graph moves.
 //!
 //! ```no_run
-//! use pirouette_io::BagOptions;
-//! use pirouette_slam::laser::{map_log, LaserConfig};
-//! let map = map_log("intel.log".as_ref(), &LaserConfig::default(), &BagOptions::default(), &|| ())?;
-//! println!("{} scans registered", map.registered.scans.len());
+//! use pirouette_slam::{map, Config, Input, MapOutput};
+//! let input = Input::open("intel.log".as_ref())?;
+//! match map(input, &Config::default(), &|_stage| ())? {
+//!     MapOutput::Laser(out) => println!("{} scans registered", out.registered.scans.len()),
+//!     MapOutput::Camera { mapped, .. } => println!("{} frames placed", mapped.map.frame_poses.len()),
+//! }
 //! # Ok::<(), pirouette_slam::SlamError>(())
 //! ```
 #![deny(missing_docs)]
 
+pub use entry::{map, Config, Input, LaserOutput, MapOutput, Work};
 pub use error::{Result, SlamError};
 
 use std::path::Path;
 
+mod entry;
 mod error;
 pub mod final_grid;
 pub mod frame;

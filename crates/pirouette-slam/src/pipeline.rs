@@ -94,15 +94,27 @@ impl PipelineConfig {
     }
 }
 
-/// What a run reports as it goes: once per frame profiled (from several
-/// threads), once per step of the map ([`crate::mapping::progress_steps`]
-/// of them).
+/// What a run reports as it goes: a camera's once per frame profiled
+/// (from several threads), once per step of the map
+/// ([`crate::mapping::progress_steps`] of them); a laser log's once per
+/// scan read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
     /// A frame's profiles are made.
     Profiled,
     /// A step of registration is done.
     Placed,
+    /// A laser scan is read and registered (or left out by the motion
+    /// filter).
+    Scan,
+}
+
+/// The sweeps of a dataset: one begins at every frame that no turn
+/// reaches (the first, and each after a forward move).
+pub fn sweep_count(ds: &Dataset) -> usize {
+    (ds.manifest.frames.iter())
+        .filter(|f| !matches!(f.motion, Some(Motion::Turn { .. })))
+        .count()
 }
 
 /// A dataset's profiles and sweeps ([`sweep_dataset`]).
@@ -175,12 +187,14 @@ pub fn sweep_dataset(
     })
 }
 
-/// The whole run: frames in, profiles, sweeps, registration, the grid.
+/// The whole run: settings checked ([`PipelineConfig::check`]), frames
+/// in, profiles, sweeps, registration, the grid.
 pub fn map_dataset(
     ds: &Dataset,
     config: &PipelineConfig,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<Mapped> {
+    config.check()?;
     let name = || ds.manifest_path().display().to_string();
     // A route whose commands alone make too large a map, before any image.
     check_extent(
