@@ -24,10 +24,10 @@ pub struct CameraArgs {
     /// calibration by eye, into this folder.
     #[arg(long)]
     overlay: Option<PathBuf>,
-    /// The model the overlay draws: paper or pinhole (default: the most
-    /// accurate the dataset allows).
-    #[arg(long, value_parser = ["paper", "pinhole"])]
-    model: Option<String>,
+    /// The model the overlay draws (default: the most accurate the
+    /// dataset allows).
+    #[arg(long, value_enum)]
+    model: Option<super::choices::Model>,
 }
 
 /// `pirouette camera`.
@@ -42,7 +42,7 @@ pub fn camera(a: CameraArgs) -> Result<()> {
     }
     let ds = super::open_dataset(&a.dataset)?;
     if let Some(dir) = &a.overlay {
-        return overlay(&ds, dir, a.model.as_deref());
+        return overlay(&ds, dir, a.model.map(Into::into));
     }
     let cam = &ds.manifest.camera;
     let Some(pinhole) = cam.pinhole_model() else {
@@ -86,17 +86,13 @@ pub fn camera(a: CameraArgs) -> Result<()> {
 
 /// `pirouette camera --overlay DIR`: each image with its projected floor
 /// grid, `DIR/<sweep>-<k>-overlay.png`.
-fn overlay(ds: &pirouette::io::Dataset, dir: &std::path::Path, model: Option<&str>) -> Result<()> {
-    use pirouette::camera::ModelKind;
+fn overlay(
+    ds: &pirouette::io::Dataset,
+    dir: &std::path::Path,
+    model: Option<pirouette::camera::ModelKind>,
+) -> Result<()> {
     super::check_output_dir(dir)?;
-    let kind = model.map(|m| {
-        if m == "paper" {
-            ModelKind::Paper
-        } else {
-            ModelKind::Pinhole
-        }
-    });
-    let camera = ds.camera(kind)?;
+    let camera = ds.camera(model)?;
     let reach = 2.0 * ds.manifest.max_range;
     let bar = super::progress(ds.manifest.frames.len(), "overlay");
     for (i, f) in ds.manifest.frames.iter().enumerate() {

@@ -1,8 +1,9 @@
 //! `pirouette graph optimise`: a g2o pose graph in, the optimised graph out.
 
+use super::choices::{Init, Outliers, ResidualChoice, RobustKernel, SolverChoice};
 use anyhow::{bail, Context, Result};
 use pirouette::graph::outliers::{solve_from_starts, OutlierConfig, Start};
-use pirouette::graph::{Kernel, OptimiseConfig, Residual, Solver};
+use pirouette::graph::{Kernel, OptimiseConfig};
 use pirouette::io::{read_g2o, write_g2o};
 use serde_json::json;
 use std::path::PathBuf;
@@ -19,21 +20,20 @@ pub struct GraphOptimiseArgs {
     /// One JSON line of statistics on stdout instead of the summary.
     #[arg(long)]
     json: bool,
-    /// gn: Gauss-Newton; lm: Levenberg-Marquardt.
-    #[arg(long, default_value = "lm", value_parser = ["gn", "lm"])]
-    solver: String,
+    /// The solver.
+    #[arg(long, value_enum, default_value_t = SolverChoice::Lm)]
+    solver: SolverChoice,
     /// A robust kernel on the loop closures (every edge but those joining
-    /// consecutive poses i → i+1): huber or cauchy. In place of
-    /// `--outliers reject`.
-    #[arg(long, value_parser = ["huber", "cauchy"])]
-    robust: Option<String>,
+    /// consecutive poses i → i+1). In place of `--outliers reject`.
+    #[arg(long, value_enum)]
+    robust: Option<RobustKernel>,
     /// Wrong loop closures: reject (where a loop closure's χ² at the
     /// solution is above 16.27, χ²₃ at 99.9 %, the wrong ones are found by
     /// graduated non-convexity and left out of the solve; the output keeps
     /// every edge) or keep (plain least squares over every edge). Default:
     /// reject, keep with --robust.
-    #[arg(long, value_parser = ["reject", "keep"])]
-    outliers: Option<String>,
+    #[arg(long, value_enum)]
+    outliers: Option<Outliers>,
     /// The robust kernel's width, in whitened residual units (standard
     /// deviations).
     #[arg(long, default_value_t = 1.0)]
@@ -49,13 +49,13 @@ pub struct GraphOptimiseArgs {
     /// none), chain (odometry chaining from the edges) or chordal
     /// (rotations first, then positions, from the edges: for graphs whose
     /// odometry drifts far).
-    #[arg(long, default_value = "best", value_parser = ["best", "file", "chain", "chordal"])]
-    init: String,
+    #[arg(long, value_enum, default_value_t = Init::Best)]
+    init: Init,
     /// The residual minimised: g2o ((x, y, θ) of z⁻¹·xi⁻¹·xj) or log (its
     /// SE(2) logarithm, as GTSAM takes it). χ² is reported in g2o's either
     /// way; `cost_final` in the one minimised.
-    #[arg(long, default_value = "g2o", value_parser = ["g2o", "log"])]
-    residual: String,
+    #[arg(long, value_enum, default_value_t = ResidualChoice::G2o)]
+    residual: ResidualChoice,
 }
 
 /// Runs `pirouette graph optimise`.
@@ -80,22 +80,20 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
             g.graph.held
         );
     }
-    if a.residual == "log" {
-        g.graph.residual = Residual::Log;
-    }
-    let reject = match (a.outliers.as_deref(), &a.robust) {
-        (Some("reject"), Some(_)) => {
+    g.graph.residual = a.residual.into();
+    let reject = match (a.outliers, a.robust) {
+        (Some(Outliers::Reject), Some(_)) => {
             bail!("--outliers reject and --robust are two answers to wrong loop closures: give one")
         }
-        (Some(o), _) => o == "reject",
+        (Some(o), _) => o == Outliers::Reject,
         (None, robust) => robust.is_none(),
     };
-    if let Some(kind) = &a.robust {
-        let kernel = match kind.as_str() {
-            "huber" => Kernel::Huber {
+    if let Some(kind) = a.robust {
+        let kernel = match kind {
+            RobustKernel::Huber => Kernel::Huber {
                 delta: a.robust_width,
             },
-            _ => Kernel::Cauchy { c: a.robust_width },
+            RobustKernel::Cauchy => Kernel::Cauchy { c: a.robust_width },
         };
         for e in &mut g.graph.edges {
             if e.to != e.from + 1 {
@@ -104,11 +102,7 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
         }
     }
     let config = OptimiseConfig {
-        solver: if a.solver == "gn" {
-            Solver::GaussNewton
-        } else {
-            Solver::LevenbergMarquardt
-        },
+        solver: a.solver.into(),
         max_iterations: a.max_iterations,
         relative_decrease: a.relative_decrease,
         ..OptimiseConfig::default()
@@ -120,11 +114,11 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
     } else {
         Start::Chain
     };
-    let starts: Vec<Start> = match a.init.as_str() {
-        "chordal" => vec![Start::Chordal],
-        "chain" => vec![Start::Chain],
-        "file" => vec![given],
-        _ => vec![given, Start::Chordal],
+    let starts: Vec<Start> = match a.init {
+        Init::Chordal => vec![Start::Chordal],
+        Init::Chain => vec![Start::Chain],
+        Init::File => vec![given],
+        Init::Best => vec![given, Start::Chordal],
     };
     // Loop closures: every edge but those joining consecutive poses.
     let loops: Vec<usize> = (g.graph.edges.iter().enumerate())
@@ -161,12 +155,12 @@ pub fn optimise(a: GraphOptimiseArgs) -> Result<()> {
                 "chi2_final": chi2_all,
                 "chi2_kept": summary.chi2_final,
                 "cost_final": summary.cost_final,
-                "residual": a.residual,
+                "residual": super::choices::name(a.residual),
                 "iterations": summary.iterations,
                 "time_s": time_s,
                 "read_s": read_s,
                 "converged": summary.converged,
-                "solver": a.solver,
+                "solver": super::choices::name(a.solver),
                 "init": solved.start.name(),
                 "init_tried": tried,
                 "outliers": if reject { "reject" } else { "keep" },

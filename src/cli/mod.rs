@@ -14,6 +14,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod camera;
+mod choices;
 mod graph;
 mod laser;
 mod map;

@@ -1,5 +1,6 @@
 //! `pirouette profile` and `pirouette eval profile`.
 
+use super::choices::{Filter, Model};
 use anyhow::{bail, Result};
 use pirouette::camera::ModelKind;
 use pirouette::eval::{ProfileTally, SceneView};
@@ -14,11 +15,11 @@ use std::path::PathBuf;
 pub struct ProfileOptions {
     /// Camera model: paper (the four tape measurements) or pinhole. Default:
     /// the most accurate one the dataset's camera allows.
-    #[arg(long, value_parser = ["paper", "pinhole"])]
-    model: Option<String>,
-    /// Outlier filter over the bins: median3 (robust), mean3 (the paper's) or none.
-    #[arg(long, default_value = "median3", value_parser = ["median3", "mean3", "none"])]
-    filter: String,
+    #[arg(long, value_enum)]
+    model: Option<Model>,
+    /// Outlier filter over the bins.
+    #[arg(long, value_enum, default_value_t = Filter::Median3)]
+    filter: Filter,
     /// The lowest obstacle to detect, metres (flatter things are floor).
     #[arg(long, default_value_t = VisionConfig::default().min_obstacle_height_m)]
     min_obstacle_height: f64,
@@ -61,16 +62,13 @@ pub struct ProfileOptions {
 
 impl ProfileOptions {
     pub fn model(&self) -> Option<ModelKind> {
-        self.model
-            .as_deref()
-            .map(|m| m.parse().expect("clap checked the value"))
+        self.model.map(ModelKind::from)
     }
 
     pub fn config(&self, bin_deg: f64) -> Result<VisionConfig> {
         if !(bin_deg.is_finite() && (0.05..=10.0).contains(&bin_deg)) {
             bail!("--bin-deg {bin_deg} is outside 0.05..10");
         }
-        let filter: OutlierFilter = self.filter.parse().map_err(anyhow::Error::msg)?;
         let config = VisionConfig {
             bin_width_rad: bin_deg.to_radians(),
             min_obstacle_height_m: self.min_obstacle_height,
@@ -82,7 +80,7 @@ impl ProfileOptions {
             faint_step_fraction: self.faint_step_fraction,
             faint_texture_ratio: self.faint_texture_ratio,
             line_columns: self.line_columns,
-            filter,
+            filter: OutlierFilter::from(self.filter),
             ..VisionConfig::default()
         };
         // Checked before any dataset is read, so that the error names the

@@ -1,5 +1,6 @@
 //! `pirouette sweep` and `pirouette eval sweep`.
 
+use super::choices::Dissimilarity;
 use super::profile::ProfileOptions;
 use anyhow::{bail, Result};
 use pirouette::eval::{tally_sweeps, SweepTally};
@@ -19,9 +20,9 @@ pub struct SweepOptions {
     /// column is about 0.2°) let matching resolve a fraction of a degree.
     #[arg(long = "bin-deg", default_value_t = 0.25)]
     bin_deg: f64,
-    /// Dissimilarity: robust, absolute, squared or dct (the paper's).
-    #[arg(long, default_value = "robust", value_parser = ["robust", "absolute", "squared", "dct"])]
-    measure: String,
+    /// Dissimilarity of two profiles' stretches.
+    #[arg(long, value_enum, default_value_t = Dissimilarity::Robust)]
+    measure: Dissimilarity,
     /// Half-width of the search window around the commanded turn, degrees.
     #[arg(long, default_value_t = 15.0)]
     window_deg: f64,
@@ -36,11 +37,10 @@ impl SweepOptions {
         if !(self.window_deg.is_finite() && self.window_deg > 0.0 && self.window_deg <= 90.0) {
             bail!("--window-deg {} is outside (0, 90]", self.window_deg);
         }
-        let measure: Measure = self.measure.parse().map_err(anyhow::Error::msg)?;
         Ok(SweepConfig {
             matching: MatchConfig {
                 window_rad: self.window_deg.to_radians(),
-                measure,
+                measure: Measure::from(self.measure),
                 ..MatchConfig::default()
             },
             close_loop: !self.no_loop_closure,
