@@ -101,14 +101,6 @@ impl Input {
         }
     }
 
-    /// Its name, for messages: the camera dataset's manifest or the log.
-    pub fn name(&self) -> String {
-        match self {
-            Input::Camera(ds) => ds.manifest_path().display().to_string(),
-            Input::Laser(path) => path.display().to_string(),
-        }
-    }
-
     /// How much [`map`] will report (a CARMEN log is counted here, a
     /// cheap read).
     pub fn work(&self, config: &Config) -> Result<Work> {

@@ -15,7 +15,7 @@
 //!   grid ([`mapping::build_map`]).
 //! - [`laser`]: a laser log streamed scan by scan: each matched against a
 //!   local submap, revisits closed as loops, the grid of the graph's poses
-//!   ([`laser::map_log`]).
+//!   ([`laser::register_log`], [`laser::grid_of_log`]).
 //! - [`localise`]: place queries against an index of sweeps.
 //! - [`submap`]: obstacle points and their field in the frame of an
 //!   anchor pose that the graph moves.

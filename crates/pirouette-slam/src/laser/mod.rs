@@ -14,8 +14,9 @@
 //! - [`motion`]: the prior of each scan's pose, with odometry or without.
 //! - `mapper`: the running state: the local map, the pose graph's nodes,
 //!   the keyframes, loops closed.
-//! - [`run`]: a log's run ([`register_log`], [`grid_of_log`],
-//!   [`map_log`]) and what it returns.
+//! - [`run`]: a log's run ([`register_log`], then [`fitted_grid`] and
+//!   [`grid_of_log`]; [`crate::map`] runs them in turn) and what it
+//!   returns.
 
 pub mod config;
 mod mapper;
@@ -27,6 +28,6 @@ pub mod run;
 pub use config::{check_config, LaserConfig, LoopConfig, MotionFilter, OdometryNoise, MAX_WINDOW_SCANS};
 pub use motion::{blind_priors, step_prior, BlindMotion, MotionSoFar};
 pub use run::{
-    count_scans, fitted_grid, grid_of_log, map_log, register_log, scan_profile, LaserMap, LoopClosure,
-    RegisteredLog, ScanPose, SkippedScan,
+    count_scans, fitted_grid, grid_of_log, register_log, scan_profile, LoopClosure, RegisteredLog, ScanPose,
+    SkippedScan,
 };

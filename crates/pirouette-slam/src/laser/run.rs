@@ -47,18 +47,6 @@ impl ScanPose {
     }
 }
 
-/// A mapped log.
-#[derive(Debug)]
-pub struct LaserMap {
-    /// The scans' poses and the loops closed.
-    pub registered: RegisteredLog,
-    /// The occupancy grid.
-    pub grid: OccupancyGrid,
-    /// Where the grid's cells are coarser than asked (the map would have
-    /// outgrown its budget), what was done.
-    pub coarsened: Option<String>,
-}
-
 /// A scan as a radial obstacle profile (see [`laser_frame`]).
 pub fn scan_profile(scan: &LaserScan, max_range_m: f32) -> Rop {
     laser_frame(scan, max_range_m).rop
@@ -292,25 +280,6 @@ pub fn grid_of_log(
         .into());
     }
     Ok(grid.finish())
-}
-
-/// Maps a log: registration, then the grid. `progress` is called once per
-/// scan registered.
-pub fn map_log(
-    path: &Path,
-    config: &LaserConfig,
-    options: &BagOptions,
-    progress: &dyn Fn(),
-) -> Result<LaserMap> {
-    let registered = register_log(path, config, options, progress)?;
-    let (fitted, coarsened) =
-        fitted_grid(&registered, config).map_err(|e| e.at(path.display().to_string()))?;
-    let grid = grid_of_log(path, &registered, options, config, &fitted)?;
-    Ok(LaserMap {
-        registered,
-        grid,
-        coarsened,
-    })
 }
 
 /// The laser scans of a log, counted without keeping them.
