@@ -151,12 +151,14 @@ pub struct Mapped {
     pub map: MapRun,
 }
 
-/// Frames in, profiles, verified turns and 360° sweeps.
+/// Settings checked ([`PipelineConfig::check`]), then frames in,
+/// profiles, verified turns and 360° sweeps.
 pub fn sweep_dataset(
     ds: &Dataset,
     config: &PipelineConfig,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<Swept> {
+    config.check()?;
     // Every frame's profiles: for the grid, for comparing views, for turns.
     let SweepProfiles { extractor, frames } =
         sweep_profiles(ds, config.model, config.vision.clone(), || {
