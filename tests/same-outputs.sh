@@ -7,6 +7,8 @@
 #
 #   PIROUETTE_SHARED=../shared tests/same-outputs.sh [BASE]
 #
+# BASE_BIN=path/to/pirouette uses that build of BASE instead of building it.
+#
 # Prints one line per output that differs, and exits 1 if any does.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,10 +18,14 @@ trap 'git worktree remove --force "$work/base" >/dev/null 2>&1 || true; rm -rf "
 
 echo "building this tree and $base (release) ..."
 cargo build --release --quiet --bin pirouette
-git worktree add --quiet --detach "$work/base" "$base"
-(cd "$work/base" && CARGO_TARGET_DIR="$work/base-target" cargo build --release --quiet --bin pirouette)
 new="$PWD/target/release/pirouette"
-old="$work/base-target/release/pirouette"
+if [ -n "${BASE_BIN:-}" ]; then
+  old="$BASE_BIN"
+else
+  git worktree add --quiet --detach "$work/base" "$base"
+  (cd "$work/base" && CARGO_TARGET_DIR="$work/base-target" cargo build --release --quiet --bin pirouette)
+  old="$work/base-target/release/pirouette"
+fi
 
 # What each build writes for one dataset, into $2.
 outputs() {

@@ -465,6 +465,48 @@ pub fn register(
     })
 }
 
+/// Whether [`register`] could accept `points_robot` against `field` from
+/// `prior`: `false` only where it cannot, because fewer than
+/// [`RegisterConfig::min_matched`] of the endpoints it would match can
+/// come within the matched distance of a mapped obstacle at any pose the
+/// search and its refinement may reach (an endpoint moves by at most the
+/// translation plus its range times the turn). It looks up each endpoint
+/// once, at the prior's mean, against the field's obstacle points, at a
+/// small part of a registration's cost: what two views that share nothing
+/// spend on learning so.
+pub fn may_accept(
+    field: &LikelihoodField,
+    points_robot: &[Point2],
+    prior: &PosePrior,
+    config: &RegisterConfig,
+) -> Result<bool, RegisterError> {
+    let points = thinned(field, points_robot, prior, config)?;
+    if points.len() < config.min_matched || field.obstacle_points() == 0 {
+        return Ok(false);
+    }
+    let Some(radius) = field.matched_radius() else {
+        return Ok(true);
+    };
+    let res = field.resolution_m();
+    let (lattice, nt) = Lattice::around(prior, &points, res, config);
+    // The farthest the search's lattice and then its refinement move the
+    // pose from the prior's mean.
+    let shift = ((lattice.nx as f64 + REFINE_REACH_STEPS) * res)
+        .hypot((lattice.ny as f64 + REFINE_REACH_STEPS) * res);
+    let turn = (nt as f64 + REFINE_REACH_STEPS) * lattice.theta_step;
+    let mut near = 0;
+    for p in &points {
+        let at = prior.mean.transform_point(*p);
+        if field.obstacle_within(at, radius + shift + p.norm() * turn) {
+            near += 1;
+            if near >= config.min_matched {
+                return Ok(true);
+            }
+        }
+    }
+    Ok(false)
+}
+
 /// The endpoints a registration matches, its prior checked: thinned to
 /// one per [`RegisterConfig::spacing_m`] (at least a field cell).
 fn thinned(
@@ -1088,6 +1130,21 @@ const REFINED: f64 = 2e-3;
 
 /// Gauss-Newton steps a refinement takes at most.
 const MAX_REFINE_STEPS: usize = 20;
+
+/// How far a refinement may move the pose from the search's best, in
+/// lattice steps along each axis ([`may_accept`] counts on it). Gauss-Newton's
+/// steps of at most half a lattice step reach 10 at most; the pattern
+/// search, taking steps down to a sixteenth, has been seen to walk 24
+/// steps of a fine rotation lattice along a flat ridge.
+const REFINE_REACH_STEPS: f64 = 32.0;
+
+/// Whether `pose` lies within [`REFINE_REACH_STEPS`] lattice steps of
+/// `start` along each axis.
+fn within_reach(pose: &Pose2, start: &Pose2, res: f64, theta_step: f64) -> bool {
+    (pose.x - start.x).abs() <= REFINE_REACH_STEPS * res
+        && (pose.y - start.y).abs() <= REFINE_REACH_STEPS * res
+        && wrap_angle(pose.theta - start.theta).abs() <= REFINE_REACH_STEPS * theta_step
+}
 
 mod posterior;
 

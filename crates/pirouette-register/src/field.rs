@@ -657,6 +657,28 @@ impl LikelihoodField {
         }
     }
 
+    /// Whether an obstacle point lies within `radius` of `p` (map frame).
+    pub(crate) fn obstacle_within(&self, p: Point2, radius: f64) -> bool {
+        self.points.any_within(p, radius)
+    }
+
+    /// How far from its nearest obstacle point an endpoint may lie and
+    /// still count as matched (its exact value at least that of a point
+    /// `2σ` off an obstacle on unseen floor, see [`Registration::matched`](crate::Registration::matched)),
+    /// with a hair to spare for rounding; `None` where a point with no
+    /// obstacle near may count (a base above that value).
+    pub(crate) fn matched_radius(&self) -> Option<f64> {
+        let eps = self.epsilon;
+        let near = eps + (1.0 - eps) * (-2.0f64).exp();
+        let base = eps.max(self.epsilon_free);
+        if base >= near {
+            return None;
+        }
+        let d2 = -self.two_sigma2 * ((near - base) / (1.0 - eps)).ln();
+        let d = d2.max(0.0).sqrt().min(self.points.cutoff);
+        Some(d * (1.0 + 1e-6) + 1e-9)
+    }
+
     /// The exact value at a map point, from its nearest obstacle point
     /// within the cutoff.
     pub fn exact(&self, p: Point2) -> f64 {
@@ -911,6 +933,14 @@ impl Buckets {
     fn nearest(&self, p: Point2) -> Option<([f64; 2], f64)> {
         let (i, j) = self.bucket_of(p);
         nearest_of(self.buckets((i - 1, j - 1), (i + 1, j + 1)), p, self.cutoff2)
+    }
+
+    /// Whether any point lies within `radius` of `p`.
+    fn any_within(&self, p: Point2, radius: f64) -> bool {
+        let r2 = radius * radius;
+        let lo = self.bucket_of(Point2::new(p.x - radius, p.y - radius));
+        let hi = self.bucket_of(Point2::new(p.x + radius, p.y + radius));
+        self.buckets(lo, hi).any(|c| squared_distance(p, c) <= r2)
     }
 
     /// Appends every point within `radius` of `p`.

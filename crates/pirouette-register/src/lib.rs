@@ -30,8 +30,8 @@ mod correlative;
 mod field;
 
 pub use correlative::{
-    register, thin_points, Covariance, MotionNoise, PosePrior, RegisterConfig, Registration, Rival, Search,
-    Window,
+    may_accept, register, thin_points, Covariance, MotionNoise, PosePrior, RegisterConfig, Registration,
+    Rival, Search, Window,
 };
 pub use field::{LikelihoodField, CUTOFF_SIGMAS};
 

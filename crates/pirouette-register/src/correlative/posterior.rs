@@ -375,7 +375,9 @@ fn lattice_covariance(
 }
 
 /// Pattern search on the exact score plus prior, from `start`,
-/// with steps halving from half a lattice step to 1/16 of it.
+/// with steps halving from half a lattice step to 1/16 of it, within
+/// [`REFINE_REACH_STEPS`](super::REFINE_REACH_STEPS) lattice steps of
+/// `start` along each axis.
 fn pattern_refine(anchored: &Anchored, prior: &PosePrior, res: f64, theta_step: f64) -> Pose2 {
     // A third of the candidates are poses scored before (the same bits,
     // reached again after a move): each is scored once.
@@ -401,6 +403,9 @@ fn pattern_refine(anchored: &Anchored, prior: &PosePrior, res: f64, theta_step: 
                         pose.y + dy * step_xy,
                         pose.theta + dt * step_t,
                     );
+                    if !super::within_reach(&cand, &anchored.start, res, theta_step) {
+                        continue;
+                    }
                     let s = score(&cand);
                     if s > best {
                         best = s;

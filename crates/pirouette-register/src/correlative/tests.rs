@@ -348,3 +348,87 @@ fn laplace_is_the_spread_of_the_exact_posterior() {
         );
     }
 }
+
+/// Two views of random walls, each a camera's 60° sector up to 2.5 m,
+/// from poses apart by up to 2 m and any heading: where they share
+/// nothing `may_accept` says so before any search, and it never says so
+/// of a pair that registration accepts (both covariances, both searches
+/// of the posterior).
+#[test]
+fn may_accept_refuses_only_what_registration_would_not_accept() {
+    let mut rng = ChaCha8Rng::seed_from_u64(29);
+    let sector = |world: &[Point2], pose: &Pose2| -> Vec<Point2> {
+        seen_from(world, pose, 2.5, 0.003, 0)
+            .into_iter()
+            .filter(|p| p.y.atan2(p.x).abs() <= 30f64.to_radians())
+            .collect()
+    };
+    let (mut refused, mut accepted, mut cases) = (0, 0, 0);
+    for _ in 0..200 {
+        let mut world = Vec::new();
+        for _ in 0..rng.random_range(3..8) {
+            let (x0, y0) = (rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0));
+            let angle: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let length = rng.random_range(0.5..3.0);
+            for k in 0..(length / 0.004) as usize {
+                let t = k as f64 * 0.004;
+                world.push(Point2::new(x0 + t * angle.cos(), y0 + t * angle.sin()));
+            }
+        }
+        let a = Pose2::new(0.0, 0.0, rng.random_range(-3.0..3.0));
+        let b = Pose2::new(
+            rng.random_range(-1.4..1.4),
+            rng.random_range(-1.4..1.4),
+            a.theta + rng.random_range(-1.5..1.5),
+        );
+        let mapped: Vec<Point2> = sector(&world, &a)
+            .into_iter()
+            .map(|p| a.transform_point(p))
+            .collect();
+        let seen = sector(&world, &b);
+        if mapped.len() < 20 || seen.len() < 20 {
+            continue;
+        }
+        let field = field_of(&mapped);
+        let prior = PosePrior {
+            mean: b * Pose2::new(rng.random_range(-0.05..0.05), rng.random_range(-0.05..0.05), 0.02),
+            sigma_forward_m: 0.05,
+            sigma_left_m: 0.05,
+            sigma_theta_rad: 3f64.to_radians(),
+        };
+        for (covariance, search) in [
+            (Covariance::Posterior, Search::Exhaustive),
+            (Covariance::Posterior, Search::BranchAndBound),
+            (Covariance::Laplace, Search::BranchAndBound),
+        ] {
+            let config = RegisterConfig {
+                covariance,
+                search,
+                ..RegisterConfig::default()
+            };
+            let may = may_accept(&field, &seen, &prior, &config).unwrap();
+            let reg = register(&field, &seen, &prior, &config).unwrap();
+            assert!(may || !reg.accepted, "refused a pair registration accepts");
+            cases += 1;
+            refused += usize::from(!may);
+            accepted += usize::from(reg.accepted);
+        }
+    }
+    // Both outcomes are exercised.
+    assert!(
+        cases >= 90 && refused >= 20 && accepted >= 20,
+        "{cases} {refused} {accepted}"
+    );
+}
+
+/// An endpoint counts as matched within 2σ of an obstacle on unseen floor.
+#[test]
+fn the_matched_radius_is_two_sigma() {
+    let field = LikelihoodField::from_points(&[Point2::new(0.0, 0.0)], 0.01, 0.015, 0.2);
+    let r = field.matched_radius().unwrap();
+    assert!((r - 0.03).abs() < 1e-6, "{r}");
+    // Just inside it the value is the matched level's; just beyond, below.
+    let near = (0.2 + 0.8 * (-2.0f64).exp()).ln();
+    assert!(field.exact(Point2::new(0.03 - 1e-7, 0.0)) >= near);
+    assert!(field.exact(Point2::new(0.03 + 1e-4, 0.0)) < near);
+}

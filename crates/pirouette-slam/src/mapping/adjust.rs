@@ -11,7 +11,7 @@ use crate::error::Result;
 use crate::frame::DatasetSweep;
 use crate::frame::Frame;
 use pirouette_geom::{Point2, Pose2};
-use pirouette_register::{register, LikelihoodField, PosePrior};
+use pirouette_register::{may_accept, register, LikelihoodField, PosePrior};
 use rayon::prelude::*;
 
 /// The sweeps adjusted jointly, each a rigid whole, to agree with every
@@ -47,29 +47,20 @@ pub(super) fn adjust_jointly(
 /// other's maps, so the match looks near where they are.
 const PAIR_SHIFT_M: f64 = 0.05;
 
-/// Each sweep's own map (the field of what it alone saw, its frames as
-/// the heading chain placed them) and its endpoints, in its frame.
-fn own_maps(
+/// Sweep `s`'s own map: the field of what it alone saw, its frames as
+/// the heading chain placed them, in its frame.
+fn own_field(
+    s: usize,
     placed: &[Placed],
     sweeps: &[DatasetSweep],
     input: &[Frame],
     blind_m: f64,
     config: &MapConfig,
-) -> Result<Vec<(LikelihoodField, Vec<Point2>)>> {
-    let all = |s: usize| (0..sweeps[s].frames.len()).collect::<Vec<_>>();
-    (0..sweeps.len())
-        .into_par_iter()
-        .map(|s| -> Result<_> {
-            let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
-                .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
-                .collect();
-            let seen = seen_by(&frames, input, blind_m, config)?;
-            Ok((
-                field_in(&seen, None, config),
-                placed[s].points(&sweeps[s], &all(s), input, config),
-            ))
-        })
-        .collect()
+) -> Result<LikelihoodField> {
+    let frames: Vec<(usize, Pose2)> = (0..sweeps[s].frames.len())
+        .map(|k| (sweeps[s].frames[k], placed[s].rel(k)))
+        .collect();
+    Ok(field_in(&seen_by(&frames, input, blind_m, config)?, None, config))
 }
 
 /// The measured relative poses between every two sweeps within reach of
@@ -85,7 +76,18 @@ fn sweep_edges(
     config: &MapConfig,
     revisits: &mut [revisits::Revisit],
 ) -> Result<(Vec<graph::Edge>, Vec<Option<usize>>)> {
-    let own = own_maps(placed, sweeps, input, blind_m, config)?;
+    // Each sweep's endpoints in its frame.
+    let own_points: Vec<Vec<Point2>> = (0..sweeps.len())
+        .into_par_iter()
+        .map(|s| {
+            placed[s].points(
+                &sweeps[s],
+                &(0..sweeps[s].frames.len()).collect::<Vec<_>>(),
+                input,
+                config,
+            )
+        })
+        .collect();
     // Sweeps farther apart than twice the registration's reach see nothing
     // in common.
     let reach = |s: usize| {
@@ -112,42 +114,33 @@ fn sweep_edges(
             pairs.push((r.earlier, r.later, Some(r.relative)));
         }
     }
-    let edges = pairs
-        .par_iter()
-        .map(|&(i, j, recognised)| -> Result<Option<graph::Edge>> {
-            let (mean, shift) = match recognised {
-                Some(z) => (z, REVISIT_SHIFT_M),
-                None => (placed[i].pose.between(&placed[j].pose), PAIR_SHIFT_M),
-            };
-            let prior = PosePrior {
-                mean,
-                sigma_forward_m: shift,
-                sigma_left_m: shift,
-                sigma_theta_rad: config.sweep.commanded_sigma_rad,
-            };
-            // A revisit out of reach is an edge only where it passes the
-            // test of a true revisit; a pair within reach where its match
-            // is trusted.
-            let reg = match recognised {
-                Some(_) => config.revisit.register(
-                    &own[i].0,
-                    &own[j].1,
-                    &prior,
-                    config.register.max_window_m,
-                    &config.register,
-                )?,
-                None => {
-                    Some(register(&own[i].0, &own[j].1, &prior, &config.register)?).filter(|r| r.accepted)
-                }
-            };
-            Ok(reg.map(|reg| graph::Edge {
-                i,
-                j,
-                z: reg.pose,
-                info: graph::information(&reg.covariance),
-            }))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    // The pairs grouped by the sweep whose map the other is matched
+    // against: that map is made for its pairs and dropped after them, a
+    // few at a time (a long stream of frames has as many maps as frames).
+    let mut by_map: Vec<Vec<usize>> = vec![Vec::new(); sweeps.len()];
+    for (k, &(i, _, _)) in pairs.iter().enumerate() {
+        by_map[i].push(k);
+    }
+    let mapped: Vec<usize> = (0..sweeps.len()).filter(|&i| !by_map[i].is_empty()).collect();
+    let mut edges: Vec<Option<graph::Edge>> = vec![None; pairs.len()];
+    for chunk in mapped.chunks(rayon::current_num_threads().max(1)) {
+        let fields: Vec<LikelihoodField> = chunk
+            .par_iter()
+            .map(|&i| own_field(i, placed, sweeps, input, blind_m, config))
+            .collect::<Result<_>>()?;
+        let ks: Vec<(usize, &LikelihoodField)> = chunk
+            .iter()
+            .zip(&fields)
+            .flat_map(|(&i, f)| by_map[i].iter().map(move |&k| (k, f)))
+            .collect();
+        let found = ks
+            .par_iter()
+            .map(|&(k, field)| pair_edge(pairs[k], field, &own_points, placed, config))
+            .collect::<Result<Vec<_>>>()?;
+        for (&(k, _), e) in ks.iter().zip(found) {
+            edges[k] = e;
+        }
+    }
     // Where each revisit's pair ended up among the edges kept.
     let mut at = Vec::with_capacity(edges.len());
     let mut kept_edges = Vec::new();
@@ -166,6 +159,51 @@ fn sweep_edges(
         })
         .collect();
     Ok((kept_edges, revisit_edges))
+}
+
+/// The edge of one pair `(i, j, recognised)` of [`sweep_edges`]: sweep
+/// `j`'s endpoints registered against `field`, what sweep `i` alone saw,
+/// from where the two were placed or, for a recognised revisit out of
+/// reach, from where the place index put it. `None` where the match is
+/// not trusted.
+fn pair_edge(
+    (i, j, recognised): (usize, usize, Option<Pose2>),
+    field: &LikelihoodField,
+    own_points: &[Vec<Point2>],
+    placed: &[Placed],
+    config: &MapConfig,
+) -> Result<Option<graph::Edge>> {
+    let (mean, shift) = match recognised {
+        Some(z) => (z, REVISIT_SHIFT_M),
+        None => (placed[i].pose.between(&placed[j].pose), PAIR_SHIFT_M),
+    };
+    let prior = PosePrior {
+        mean,
+        sigma_forward_m: shift,
+        sigma_left_m: shift,
+        sigma_theta_rad: config.sweep.commanded_sigma_rad,
+    };
+    let points = &own_points[j];
+    // A revisit out of reach is an edge only where it passes the test of
+    // a true revisit; a pair within reach where its match is trusted.
+    let reg = match recognised {
+        Some(_) => config.revisit.register(
+            field,
+            points,
+            &prior,
+            config.register.max_window_m,
+            &config.register,
+        )?,
+        // Views that share nothing are not matched.
+        None if !may_accept(field, points, &prior, &config.register)? => None,
+        None => Some(register(field, points, &prior, &config.register)?).filter(|r| r.accepted),
+    };
+    Ok(reg.map(|reg| graph::Edge {
+        i,
+        j,
+        z: reg.pose,
+        info: graph::information(&reg.covariance),
+    }))
 }
 
 /// How far from where the place index puts a revisit its pair is
