@@ -73,6 +73,36 @@ impl Runner {
         Ok(String::from_utf8_lossy(&out.stdout).into_owned())
     }
 
+    /// Times `bin map INPUT --out WORK/map`: its usage and the map folder.
+    fn timed_map(&self, work: &Path, bin: &Path, input: &Path) -> Result<(Usage, PathBuf)> {
+        let map = work.join("map");
+        let (u, _) = self.timed(
+            work,
+            bin,
+            &args([
+                "map".as_ref(),
+                input.as_os_str(),
+                "--out".as_ref(),
+                map.as_os_str(),
+            ]),
+        )?;
+        Ok((u, map))
+    }
+
+    /// This build's `eval WHAT A B --json`, read.
+    fn evaluated(&self, what: &str, a: &Path, b: &Path) -> Result<serde_json::Value> {
+        json(&self.plain(
+            &self.this,
+            &args([
+                "eval".as_ref(),
+                what.as_ref(),
+                a.as_os_str(),
+                b.as_os_str(),
+                "--json".as_ref(),
+            ]),
+        )?)
+    }
+
     /// Runs `case` with `bin` in `work`; `figures` false for timing
     /// repeats, which run only the timed commands.
     pub fn run(&self, case: &Case, bin: &Path, work: &Path, figures: bool) -> Result<Outcome> {
@@ -86,14 +116,8 @@ impl Runner {
         match &case.input {
             Input::Camera(source) => {
                 let ds = self.places.dataset(source)?;
-                let map = work.join("map");
-                add(self
-                    .timed(
-                        work,
-                        bin,
-                        &args(["map".as_ref(), ds.as_os_str(), "--out".as_ref(), map.as_os_str()]),
-                    )?
-                    .0);
+                let (u, map) = self.timed_map(work, bin, &ds)?;
+                add(u);
                 if figures {
                     let prof = self.plain(
                         bin,
@@ -131,16 +155,7 @@ impl Runner {
                             ("max_verified_error_deg", "/max_verified_error_deg"),
                         ],
                     );
-                    let eval = json(&self.plain(
-                        &self.this,
-                        &args([
-                            "eval".as_ref(),
-                            "map".as_ref(),
-                            ds.as_os_str(),
-                            map.as_os_str(),
-                            "--json".as_ref(),
-                        ]),
-                    )?)?;
+                    let eval = self.evaluated("map", &ds, &map)?;
                     take(
                         &mut f,
                         &eval,
@@ -154,25 +169,10 @@ impl Runner {
                 every,
             } => {
                 let rig = self.places.real_rig(rig, frame_times, *every)?;
-                let map = work.join("map");
-                add(self
-                    .timed(
-                        work,
-                        bin,
-                        &args(["map".as_ref(), rig.as_os_str(), "--out".as_ref(), map.as_os_str()]),
-                    )?
-                    .0);
+                let (u, map) = self.timed_map(work, bin, &rig)?;
+                add(u);
                 if figures {
-                    let eval = json(&self.plain(
-                        &self.this,
-                        &args([
-                            "eval".as_ref(),
-                            "map".as_ref(),
-                            rig.as_os_str(),
-                            map.as_os_str(),
-                            "--json".as_ref(),
-                        ]),
-                    )?)?;
+                    let eval = self.evaluated("map", &rig, &map)?;
                     take(
                         &mut f,
                         &eval,
@@ -248,25 +248,10 @@ impl Runner {
             }
             Input::Laser { log, variant } => {
                 let log = self.places.laser_log(log, *variant)?;
-                let map = work.join("map");
-                add(self
-                    .timed(
-                        work,
-                        bin,
-                        &args(["map".as_ref(), log.as_os_str(), "--out".as_ref(), map.as_os_str()]),
-                    )?
-                    .0);
+                let (u, map) = self.timed_map(work, bin, &log)?;
+                add(u);
                 if figures {
-                    let v = json(&self.plain(
-                        &self.this,
-                        &args([
-                            "eval".as_ref(),
-                            "laser".as_ref(),
-                            log.as_os_str(),
-                            map.as_os_str(),
-                            "--json".as_ref(),
-                        ]),
-                    )?)?;
+                    let v = self.evaluated("laser", &log, &map)?;
                     take(
                         &mut f,
                         &v,
@@ -292,24 +277,10 @@ impl Runner {
                 let relations = self
                     .places
                     .shared_file(&format!("laser/benchmark/{name}.relations"))?;
-                let map = work.join("map");
-                let (u, _) = self.timed(
-                    work,
-                    bin,
-                    &args(["map".as_ref(), bag.as_os_str(), "--out".as_ref(), map.as_os_str()]),
-                )?;
+                let (u, map) = self.timed_map(work, bin, &bag)?;
                 add(u);
                 if figures {
-                    let v = json(&self.plain(
-                        &self.this,
-                        &args([
-                            "eval".as_ref(),
-                            "relations".as_ref(),
-                            map.as_os_str(),
-                            relations.as_os_str(),
-                            "--json".as_ref(),
-                        ]),
-                    )?)?;
+                    let v = self.evaluated("relations", &map, &relations)?;
                     take(
                         &mut f,
                         &v,
