@@ -53,54 +53,133 @@ pub fn consistent_loops(
     candidates: &[usize],
     threshold_chi2: f64,
 ) -> Result<Option<Consistency>, GraphError> {
-    graph.check_edge_indices(candidates, "a loop closure candidate")?;
-    let Some(chain) = Chain::of(graph)? else {
-        return Ok(None);
-    };
-    let loops: Vec<Loop> = (candidates.iter())
-        .map(|&k| Loop::of(graph, &chain, k))
-        .collect::<Result<_, _>>()?;
-    let n = loops.len();
-    let words = n.div_ceil(64);
-    // Row a of the consistency graph: the candidates after a consistent
-    // with it (the matrix is symmetric; filled below from the upper half).
-    let upper: Vec<Vec<u64>> = (0..n)
-        .into_par_iter()
-        .map(|a| {
-            let mut row = vec![0u64; words];
-            for b in a + 1..n {
-                if chain.cycle_chi2(&loops[a], &loops[b]) <= threshold_chi2 {
-                    row[b / 64] |= 1 << (b % 64);
+    LoopCheck::new(threshold_chi2).check(graph, candidates)
+}
+
+/// [`consistent_loops`] for a graph that grows: each candidate is checked
+/// against every one seen before once, when it is first seen, so that
+/// checking a few new loop closures among many costs what the new ones
+/// add, not what all of them do.
+///
+/// A candidate is known by its edge index; its measurement, its
+/// information and the odometry chain up to its poses are taken as they
+/// were when it was first seen (a graph that only grows keeps them so).
+#[derive(Debug, Clone)]
+pub struct LoopCheck {
+    threshold_chi2: f64,
+    /// The edge of each candidate seen, and where it is among them.
+    edges: Vec<usize>,
+    position: std::collections::HashMap<usize, usize>,
+    loops: Vec<Loop>,
+    /// Per candidate seen, the candidates seen consistent with it (a bit
+    /// set, symmetric).
+    adjacent: Vec<Vec<u64>>,
+}
+
+impl LoopCheck {
+    /// No candidate seen yet; pairs consistent at `threshold_chi2`.
+    pub fn new(threshold_chi2: f64) -> Self {
+        Self {
+            threshold_chi2,
+            edges: Vec::new(),
+            position: std::collections::HashMap::new(),
+            loops: Vec::new(),
+            adjacent: Vec::new(),
+        }
+    }
+
+    /// The largest set found of `candidates` consistent with each other
+    /// (as [`consistent_loops`]); those not seen before are first checked
+    /// against every candidate seen. Candidates seen before but not among
+    /// `candidates` take no part.
+    ///
+    /// # Errors
+    /// As [`consistent_loops`]; nothing is learnt from a call that fails.
+    pub fn check(
+        &mut self,
+        graph: &PoseGraph,
+        candidates: &[usize],
+    ) -> Result<Option<Consistency>, GraphError> {
+        graph.check_edge_indices(candidates, "a loop closure candidate")?;
+        let Some(chain) = Chain::of(graph)? else {
+            return Ok(None);
+        };
+        // Each once, in the order asked (which breaks the clique's ties).
+        let mut unique = Vec::with_capacity(candidates.len());
+        let mut listed = std::collections::HashSet::new();
+        unique.extend(candidates.iter().filter(|&&k| listed.insert(k)));
+        let candidates = &unique[..];
+        let mut new = Vec::new();
+        for &k in candidates {
+            if !self.position.contains_key(&k) && !new.contains(&k) {
+                new.push(k);
+            }
+        }
+        let fresh: Vec<Loop> = (new.iter())
+            .map(|&k| Loop::of(graph, &chain, k))
+            .collect::<Result<_, _>>()?;
+        let seen = self.loops.len();
+        self.loops.extend(fresh);
+        let n = self.loops.len();
+        // Each new candidate against every one before it.
+        let loops = &self.loops;
+        let threshold = self.threshold_chi2;
+        let rows: Vec<Vec<u64>> = (seen..n)
+            .into_par_iter()
+            .map(|b| {
+                let mut row = vec![0u64; n.div_ceil(64)];
+                for a in 0..b {
+                    if chain.cycle_chi2(&loops[a], &loops[b]) <= threshold {
+                        row[a / 64] |= 1 << (a % 64);
+                    }
+                }
+                row
+            })
+            .collect();
+        for row in &mut self.adjacent {
+            row.resize(n.div_ceil(64), 0);
+        }
+        self.adjacent.extend(rows);
+        for b in seen..n {
+            for a in 0..b {
+                if self.adjacent[b][a / 64] >> (a % 64) & 1 == 1 {
+                    self.adjacent[a][b / 64] |= 1 << (b % 64);
                 }
             }
-            row
-        })
-        .collect();
-    let mut adjacent = upper;
-    for a in 0..n {
-        for b in a + 1..n {
-            if adjacent[a][b / 64] >> (b % 64) & 1 == 1 {
-                adjacent[b][a / 64] |= 1 << (a % 64);
+        }
+        for (p, &k) in (seen..n).zip(&new) {
+            self.edges.push(k);
+            self.position.insert(k, p);
+        }
+        // The candidates asked about, as vertices 0..m.
+        let asked: Vec<usize> = candidates.iter().map(|k| self.position[k]).collect();
+        let m = asked.len();
+        let sub: Vec<Vec<u64>> = (asked.iter())
+            .map(|&p| {
+                let mut row = vec![0u64; m.div_ceil(64)];
+                for (v, &q) in asked.iter().enumerate() {
+                    if p != q && self.adjacent[p][q / 64] >> (q % 64) & 1 == 1 {
+                        row[v / 64] |= 1 << (v % 64);
+                    }
+                }
+                row
+            })
+            .collect();
+        let mut in_clique = vec![false; m];
+        for c in largest_clique(&sub, m) {
+            in_clique[c] = true;
+        }
+        let mut kept = Vec::new();
+        let mut dropped = Vec::new();
+        for (c, &k) in candidates.iter().enumerate() {
+            if in_clique[c] {
+                kept.push(k);
+            } else {
+                dropped.push(k);
             }
         }
+        Ok(Some(Consistency { kept, dropped }))
     }
-    let clique = largest_clique(&adjacent, n);
-    let mut kept = Vec::with_capacity(clique.len());
-    let mut dropped = Vec::new();
-    let mut in_clique = vec![false; n];
-    for &c in &clique {
-        in_clique[c] = true;
-    }
-    for (c, &k) in candidates.iter().enumerate() {
-        if in_clique[c] {
-            kept.push(k);
-        } else {
-            dropped.push(k);
-        }
-    }
-    kept.sort_unstable();
-    dropped.sort_unstable();
-    Ok(Some(Consistency { kept, dropped }))
 }
 
 /// The odometry chain: every pose dead-reckoned from pose 0 and the
@@ -191,6 +270,7 @@ impl Chain {
 }
 
 /// A loop closure as the consistency check uses it.
+#[derive(Debug, Clone)]
 struct Loop {
     from: usize,
     to: usize,
@@ -232,15 +312,21 @@ fn largest_clique(adjacent: &[Vec<u64>], n: usize) -> Vec<usize> {
         }
         let mut clique = vec![v];
         let mut open = adjacent[v].clone();
+        // The open vertex of highest degree (the first of equals) is the
+        // first open one in `order`; open vertices only close, so the
+        // search for it goes on from where it last stopped.
+        let mut next_in_order = 0;
         loop {
             // A clique that cannot outgrow the best so far is given up.
             let left: usize = open.iter().map(|w| w.count_ones() as usize).sum();
             if clique.len() + left <= best.len() {
                 break;
             }
-            // The open vertex of highest degree (the first of equals).
-            let next = set_bits(&open).max_by_key(|&u| (degree[u], std::cmp::Reverse(u)));
-            let Some(u) = next else { break };
+            let is_open = |u: usize| open[u / 64] >> (u % 64) & 1 == 1;
+            while next_in_order < n && !is_open(order[next_in_order]) {
+                next_in_order += 1;
+            }
+            let Some(&u) = order.get(next_in_order) else { break };
             clique.push(u);
             for (o, a) in open.iter_mut().zip(&adjacent[u]) {
                 *o &= a;
@@ -252,20 +338,6 @@ fn largest_clique(adjacent: &[Vec<u64>], n: usize) -> Vec<usize> {
     }
     best.sort_unstable();
     best
-}
-
-/// The vertices whose bits are set, in order.
-fn set_bits(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
-    bits.iter().enumerate().flat_map(|(w, &word)| {
-        let mut rest = word;
-        std::iter::from_fn(move || {
-            (rest != 0).then(|| {
-                let b = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                64 * w + b
-            })
-        })
-    })
 }
 
 #[cfg(test)]
@@ -381,6 +453,40 @@ mod tests {
                 loops.len()
             );
         }
+    }
+
+    /// Candidates checked a few at a time as the graph grows give what
+    /// one check of them all gives; one seen before but not asked about
+    /// takes no part.
+    #[test]
+    fn a_check_as_the_graph_grows_gives_what_one_check_gives() {
+        let (mut graph, _) = grid_world(300, 0.02, 0.01, 4);
+        let loops: Vec<usize> = (graph.edges.iter().enumerate())
+            .filter(|(_, e)| e.to != e.from + 1)
+            .map(|(k, _)| k)
+            .collect();
+        let wrong = crate::synthetic::add_wrong_loops(&mut graph, loops.len() / 8 + 1, 60);
+        let mut all: Vec<usize> = loops.iter().chain(&wrong).copied().collect();
+        all.sort_by_key(|&k| (graph.edges[k].from.max(graph.edges[k].to), k));
+        let once = consistent_loops(&graph, &all, CHI2_3_999).unwrap().unwrap();
+        assert!(!once.dropped.is_empty() && once.kept.len() > 20);
+        let mut check = LoopCheck::new(CHI2_3_999);
+        for end in (7..all.len()).step_by(7).chain([all.len()]) {
+            // Listed twice: one candidate still.
+            let mut asked = all[..end].to_vec();
+            asked.push(all[0]);
+            let grown = check.check(&graph, &asked).unwrap().unwrap();
+            let fresh = consistent_loops(&graph, &all[..end], CHI2_3_999)
+                .unwrap()
+                .unwrap();
+            assert_eq!(grown, fresh, "first {end}");
+        }
+        // Without the first true loop: as if it had never been seen.
+        let rest: Vec<usize> = all.iter().copied().filter(|&k| k != once.kept[0]).collect();
+        assert_eq!(
+            check.check(&graph, &rest).unwrap(),
+            consistent_loops(&graph, &rest, CHI2_3_999).unwrap()
+        );
     }
 
     #[test]
