@@ -19,6 +19,8 @@
 //! - [`localise`]: place queries against an index of sweeps.
 //! - [`submap`]: obstacle points and their field in the frame of an
 //!   anchor pose that the graph moves.
+//! - [`backend`]: the graph, the revisit test and the gated solve both
+//!   sensors share.
 //!
 //! ```no_run
 //! use pirouette_slam::{map, Config, Input, MapOutput};
@@ -31,11 +33,13 @@
 //! ```
 #![deny(missing_docs)]
 
+pub use backend::revisit;
 pub use entry::{map, Config, Input, LaserOutput, MapOutput, Work};
 pub use error::{Result, SlamError};
 
 use std::path::Path;
 
+pub mod backend;
 mod entry;
 mod error;
 pub mod final_grid;
@@ -44,7 +48,6 @@ pub mod laser;
 pub mod localise;
 pub mod mapping;
 pub mod pipeline;
-pub mod revisit;
 pub mod submap;
 
 /// The sensor whose input a path holds.

@@ -2,15 +2,15 @@
 
 use super::config::LaserConfig;
 use super::motion::{at_window_edge, blind_priors, moved_by, step_prior, BlindMotion, MotionSoFar};
-use super::nodes::Nodes;
 use super::revisits::{Keyframes, Track};
 use super::run::{LoopClosure, RegisteredLog, ScanPose, SkippedScan};
+use crate::backend::edge::{information, Edge as MeasuredEdge};
+use crate::backend::nodes::Nodes;
 use crate::frame::Frame;
-use crate::mapping::graph::{information, Edge as MeasuredEdge, EDGE_GATE};
 use crate::submap::Submap;
 use nalgebra::{Matrix3, Vector3};
 use pirouette_geom::{Point2, Pose2};
-use pirouette_graph::{optimise, Edge as GraphEdge, Kernel, OptimiseConfig};
+use pirouette_graph::{Edge as GraphEdge, Kernel, OptimiseConfig};
 use pirouette_io::LaserScan;
 use pirouette_register::{
     endpoints, far_points, thin_points, PosePrior, RegisterConfig, RegisterError, Registration,
@@ -424,7 +424,7 @@ impl<'c> Mapper<'c> {
     }
 
     /// The registered log: `meta` with the final poses, the loops, and
-    /// the graph without the loop edges it dropped.
+    /// the graph without the loop edges its last solve left out.
     pub(super) fn finish(mut self, mut meta: Vec<ScanPose>) -> Result<RegisteredLog> {
         if self.unsolved {
             self.optimise();
@@ -432,19 +432,13 @@ impl<'c> Mapper<'c> {
         for (s, p) in meta.iter_mut().zip(&self.poses) {
             s.pose = *p;
         }
-        let dropped: Vec<usize> = (self.loops.iter())
-            .filter(|(l, _)| !l.kept)
-            .map(|&(_, e)| e)
-            .collect();
         let Nodes {
-            mut graph,
-            scans: nodes,
-            ..
+            graph, scans: nodes, ..
         } = self.nodes;
-        graph.edges = (graph.edges.into_iter().enumerate())
-            .filter(|(e, _)| !dropped.contains(e))
-            .map(|(_, edge)| edge)
-            .collect();
+        for (closure, e) in &mut self.loops {
+            closure.kept = graph.kept(*e);
+        }
+        let graph = graph.into_kept();
         let skipped = (self.placed.iter())
             .map(|p| SkippedScan {
                 scan: p.scan,
@@ -607,8 +601,11 @@ impl<'c> Mapper<'c> {
         Ok(!found.is_empty())
     }
 
-    /// Solves the pose graph of the scans so far, drops the loop edges the
-    /// solution contradicts and solves again; the poses follow.
+    /// Solves the pose graph of the scans so far ([`Graph::solve`]:
+    /// the loops checked against each other first, those the solution
+    /// contradicts dropped); the poses follow.
+    ///
+    /// [`Graph::solve`]: crate::backend::solve::Graph::solve
     fn optimise(&mut self) {
         let config = OptimiseConfig {
             max_iterations: 20,
@@ -616,24 +613,8 @@ impl<'c> Mapper<'c> {
         };
         self.solves += 1;
         // A graph that cannot be solved keeps its poses.
-        let graph = &mut self.nodes.graph;
-        if optimise(graph, &config).is_err() {
+        if !self.nodes.graph.solve(&config) {
             return;
-        }
-        let mut dropped = false;
-        for (closure, e) in self.loops.iter_mut().filter(|(l, _)| l.kept) {
-            let edge = &graph.edges[*e];
-            if edge.chi2(&graph.poses[edge.from], &graph.poses[edge.to]) > EDGE_GATE {
-                closure.kept = false;
-                // Kept in place (indices stay valid), with no weight.
-                graph.edges[*e].information = [[1e-12, 0.0, 0.0], [0.0, 1e-12, 0.0], [0.0, 0.0, 1e-12]];
-                dropped = true;
-            }
-        }
-        // Solved again without them (where that fails, the first solution
-        // stands).
-        if dropped {
-            let _ = optimise(graph, &config);
         }
         for (p, q) in self.poses.iter_mut().zip(self.nodes.poses()) {
             *p = q;

@@ -21,7 +21,6 @@
 pub mod config;
 mod mapper;
 pub mod motion;
-mod nodes;
 mod revisits;
 pub mod run;
 

@@ -6,11 +6,14 @@
 use super::build::{last_frame, motion_prior, refine_pass};
 use super::fields::{field_in, seen_by};
 use super::placed::{far_reach_m, Placed};
-use super::{graph, revisits, MapConfig};
+use super::{revisits, MapConfig};
+use crate::backend::edge::{information, Edge};
+use crate::backend::solve::{Graph, Role};
 use crate::error::Result;
 use crate::frame::DatasetSweep;
 use crate::frame::Frame;
 use pirouette_geom::{Point2, Pose2};
+use pirouette_graph::{OptimiseConfig, Solver};
 use pirouette_register::{may_accept, register, LikelihoodField, PosePrior};
 use rayon::prelude::*;
 
@@ -30,9 +33,9 @@ pub(super) fn adjust_jointly(
     if let Some(c) = &config.revisits {
         revisits = revisits::recognise(sweeps, placed, c)?;
     }
-    let (mut edges, revisit_edges) = sweep_edges(placed, sweeps, input, blind_m, config, &mut revisits)?;
-    edges.extend(motion_edges(placed, sweeps, input, config));
-    let kept = adjust_sweeps(placed, edges);
+    let (pairs, revisit_edges) = sweep_edges(placed, sweeps, input, blind_m, config, &mut revisits)?;
+    let moves = motion_edges(placed, sweeps, input, config);
+    let kept = adjust_sweeps(placed, moves, pairs);
     for (r, e) in revisits.iter_mut().zip(revisit_edges) {
         r.registered = e.is_some();
         r.kept = e.is_some_and(|e| kept[e]);
@@ -75,7 +78,7 @@ fn sweep_edges(
     blind_m: f64,
     config: &MapConfig,
     revisits: &mut [revisits::Revisit],
-) -> Result<(Vec<graph::Edge>, Vec<Option<usize>>)> {
+) -> Result<(Vec<Edge>, Vec<Option<usize>>)> {
     // Each sweep's endpoints in its frame.
     let own_points: Vec<Vec<Point2>> = (0..sweeps.len())
         .into_par_iter()
@@ -122,7 +125,7 @@ fn sweep_edges(
         by_map[i].push(k);
     }
     let mapped: Vec<usize> = (0..sweeps.len()).filter(|&i| !by_map[i].is_empty()).collect();
-    let mut edges: Vec<Option<graph::Edge>> = vec![None; pairs.len()];
+    let mut edges: Vec<Option<Edge>> = vec![None; pairs.len()];
     for chunk in mapped.chunks(rayon::current_num_threads().max(1)) {
         let fields: Vec<LikelihoodField> = chunk
             .par_iter()
@@ -172,7 +175,7 @@ fn pair_edge(
     own_points: &[Vec<Point2>],
     placed: &[Placed],
     config: &MapConfig,
-) -> Result<Option<graph::Edge>> {
+) -> Result<Option<Edge>> {
     let (mean, shift) = match recognised {
         Some(z) => (z, REVISIT_SHIFT_M),
         None => (placed[i].pose.between(&placed[j].pose), PAIR_SHIFT_M),
@@ -198,11 +201,11 @@ fn pair_edge(
         None if !may_accept(field, points, &prior, &config.register)? => None,
         None => Some(register(field, points, &prior, &config.register)?).filter(|r| r.accepted),
     };
-    Ok(reg.map(|reg| graph::Edge {
+    Ok(reg.map(|reg| Edge {
         i,
         j,
         z: reg.pose,
-        info: graph::information(&reg.covariance),
+        info: information(&reg.covariance),
     }))
 }
 
@@ -219,7 +222,7 @@ fn motion_edges(
     sweeps: &[DatasetSweep],
     input: &[Frame],
     config: &MapConfig,
-) -> Vec<graph::Edge> {
+) -> Vec<Edge> {
     (1..sweeps.len())
         .map(|s| {
             let prev = &placed[s - 1];
@@ -227,25 +230,47 @@ fn motion_edges(
             let start_sigma = (config.sweep.verified_sigma_rad.powi(2) + fallback_var).sqrt();
             let motion = input[sweeps[s].frames[0]].motion;
             let prior = motion_prior(&prev.rel(last), start_sigma, motion, config);
-            graph::Edge {
+            Edge {
                 i: s - 1,
                 j: s,
                 z: prior.mean * placed[s].rel(0).inverse(),
-                info: graph::information(&prior.covariance()),
+                info: information(&prior.covariance()),
             }
         })
         .collect()
 }
 
 /// Moves the sweeps (each a rigid whole) to agree best with every measured
-/// relative pose at once (`graph::adjust`). Placing sweeps one at a time
-/// against the map of the others cannot turn a group of sweeps that agree
-/// with each other together; a joint solve can.
-fn adjust_sweeps(placed: &mut [Placed], edges: Vec<graph::Edge>) -> Vec<bool> {
-    let mut poses: Vec<Pose2> = placed.iter().map(|p| p.pose).collect();
-    let kept = graph::adjust(&mut poses, edges);
-    for (p, pose) in placed.iter_mut().zip(poses) {
-        p.pose = pose;
+/// relative pose at once: the moves between consecutive sweeps the
+/// graph's chain, the pairs' matches its loops ([`Graph::solve`]: checked
+/// against each other first, those the solution contradicts dropped).
+/// Placing sweeps one at a time against the map of the others cannot turn
+/// a group of sweeps that agree with each other together; a joint solve
+/// can. Returns, per pair, whether the solve used it.
+fn adjust_sweeps(placed: &mut [Placed], moves: Vec<Edge>, pairs: Vec<Edge>) -> Vec<bool> {
+    if placed.len() < 2 {
+        return vec![true; pairs.len()];
     }
-    kept
+    let mut graph = Graph::new(placed.iter().map(|p| p.pose).collect());
+    for e in moves {
+        graph.push(e.to_graph(), Role::GatedChain);
+    }
+    let first = graph.edges();
+    for e in pairs {
+        graph.push(e.to_graph(), Role::Loop);
+    }
+    let config = OptimiseConfig {
+        solver: Solver::GaussNewton,
+        max_iterations: GRAPH_ITERATIONS,
+        relative_decrease: 1e-12,
+        ..OptimiseConfig::default()
+    };
+    graph.solve(&config);
+    for (p, pose) in placed.iter_mut().zip(graph.poses()) {
+        p.pose = *pose;
+    }
+    (first..graph.edges()).map(|k| graph.kept(k)).collect()
 }
+
+/// Gauss-Newton iterations of the joint adjustment, at most.
+const GRAPH_ITERATIONS: usize = 10;

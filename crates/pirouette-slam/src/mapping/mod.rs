@@ -14,7 +14,6 @@ pub mod build;
 mod chain;
 pub mod config;
 mod fields;
-pub(crate) mod graph;
 mod placed;
 pub mod revisits;
 pub mod route;
