@@ -5,9 +5,10 @@
 //! and verified by registration.
 
 use super::LaserConfig;
+use crate::backend::places::Places;
 use crate::error::Result;
 use pirouette_geom::{Point2, Pose2};
-use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, QueryConfig, SignatureConfig};
+use pirouette_places::QueryConfig;
 use pirouette_profile::Rop;
 use pirouette_register::{LikelihoodField, PosePrior, Registration};
 use std::f64::consts::{PI, TAU};
@@ -45,12 +46,11 @@ pub(super) struct Found {
     pub recognised: bool,
 }
 
-/// The keyframes and the place index of their views.
+/// The keyframes and the place index of their views (each place's node
+/// a keyframe's place among them).
 pub(super) struct Keyframes {
     frames: Vec<Keyframe>,
-    index: PlaceIndex,
-    /// The keyframe of each of the index's places.
-    frame_of_place: Vec<usize>,
+    places: Places,
     /// A revisit the place index found, awaiting confirmation.
     pending: Option<Found>,
     /// Registrations tried.
@@ -60,12 +60,9 @@ pub(super) struct Keyframes {
 impl Keyframes {
     /// No keyframes yet.
     pub fn new() -> Result<Self> {
-        let mut index = PlaceIndex::new(SignatureConfig::default())?;
-        index.dataset_id("log");
         Ok(Self {
             frames: Vec::new(),
-            index,
-            frame_of_place: Vec::new(),
+            places: Places::new("log")?,
             pending: None,
             searches: 0,
         })
@@ -104,22 +101,11 @@ impl Keyframes {
         points: Vec<Point2>,
         seen: &[Point2],
     ) -> Result<()> {
-        let signature = match self.index.transforms().signature(&view(seen, config.max_range_m)) {
-            Ok(s) => Some(s),
-            Err(PlacesError::IncompleteSweep { .. }) => None,
-            Err(e) => return Err(e.into()),
-        };
-        if let Some(signature) = signature {
-            let meta = PlaceMeta {
-                dataset: 0,
-                sweep: u32::try_from(j).unwrap_or(u32::MAX),
-                truth: None,
-                profile: None,
-                map_pose: None,
-                look_alike: None,
-            };
-            self.index.insert(&signature, config.max_range_m, meta)?;
-            self.frame_of_place.push(self.frames.len());
+        let seen = view(seen, config.max_range_m);
+        if let Some(signature) = self.places.signature(&seen)? {
+            let id = u32::try_from(j).unwrap_or(u32::MAX);
+            self.places
+                .file(self.frames.len(), id, &signature, &seen, false)?;
         }
         self.frames.push(Keyframe {
             scan: j,
@@ -167,24 +153,20 @@ impl Keyframes {
         let Some(local) = local.filter(|_| candidates.is_empty() && c.index_candidates > 0) else {
             return Ok(found);
         };
-        if self.index.is_empty() {
+        if self.places.index().is_empty() {
             return Ok(found);
         }
-        let Ok(signature) = self
-            .index
-            .transforms()
-            .signature(&view(local, config.max_range_m))
-        else {
+        let Ok(Some(signature)) = self.places.signature(&view(local, config.max_range_m)) else {
             return Ok(found);
         };
         let mut tried: Vec<usize> = candidates.iter().map(|&(i, _)| i).collect();
-        for answer in self.index.query(&signature, &QueryConfig::default()) {
+        for answer in self.places.index().query(&signature, &QueryConfig::default()) {
             if tried.len() >= candidates.len() + c.index_candidates
                 || f64::from(answer.profile_rms_m) > c.max_profile_rms_m
             {
                 break;
             }
-            let i = self.frame_of_place[answer.place];
+            let i = self.places.node(answer.place);
             let (from, last_along_m) = (self.frames[i].scan, self.frames[i].last_along_m);
             if tried.contains(&i) || track.along_m[k] - last_along_m < c.min_separation_m {
                 continue;

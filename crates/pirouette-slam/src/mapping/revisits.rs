@@ -4,11 +4,11 @@
 //! joint adjustment, whatever the drift says of where the two lie.
 
 use super::placed::Placed;
+use crate::backend::places::Places;
 use crate::error::{Result, SlamError};
 use crate::frame::DatasetSweep;
 use crate::localise::{localise_signature, LocaliseConfig};
 use pirouette_geom::Pose2;
-use pirouette_places::{PlaceIndex, PlaceMeta, PlacesError, SignatureConfig, StoredProfile};
 
 /// A sweep recognised at the place of an earlier one.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,24 +40,19 @@ pub(super) fn recognise(
     placed: &[Placed],
     config: &LocaliseConfig,
 ) -> Result<Vec<Revisit>> {
-    let mut index = PlaceIndex::new(SignatureConfig::default())?;
-    let dataset = index.dataset_id("map");
-    // Index place → sweep.
-    let mut sweep_of: Vec<usize> = Vec::new();
+    let mut places = Places::new("map")?;
     let mut pending: Option<(usize, pirouette_places::Signature)> = None;
     let mut out = Vec::new();
     for (s, sweep) in sweeps.iter().enumerate() {
         let rop = &sweep.sweep.rop;
-        let signature = match index.transforms().signature(rop) {
-            Ok(sig) => Some(sig),
-            Err(PlacesError::IncompleteSweep { .. }) => None,
-            Err(e) => return Err(SlamError::from(e).at(format!("sweep {}", sweep.id))),
-        };
+        let signature =
+            (places.signature(rop)).map_err(|e| SlamError::from(e).at(format!("sweep {}", sweep.id)))?;
+        let index = places.index();
         if let Some(sig) = &signature {
             if !index.is_empty() && index.check_signature(sig, rop.max_range_m).is_ok() {
-                let answer = localise_signature(&index, sig, rop, config);
+                let answer = localise_signature(index, sig, rop, config);
                 if let Some(m) = answer.trusted() {
-                    let earlier = sweep_of[m.place];
+                    let earlier = places.node(m.place);
                     // Frame 0 of each sweep in its sweep frame.
                     let relative = placed[earlier].rel(0) * m.pose * placed[s].rel(0).inverse();
                     out.push(Revisit {
@@ -73,20 +68,9 @@ pub(super) fn recognise(
             }
         }
         // The sweep just before is filed only now: a revisit is of a
-        // sweep before that one.
+        // sweep before that one. (One the index refuses is not a place.)
         if let Some((p, sig)) = pending.take() {
-            let prev = &sweeps[p].sweep.rop;
-            let meta = PlaceMeta {
-                dataset,
-                sweep: sweeps[p].id,
-                truth: None,
-                profile: Some(StoredProfile::from_rop(prev)),
-                map_pose: None,
-                look_alike: None,
-            };
-            if index.insert(&sig, prev.max_range_m, meta).is_ok() {
-                sweep_of.push(p);
-            }
+            let _ = places.file(p, sweeps[p].id, &sig, &sweeps[p].sweep.rop, true);
         }
         pending = signature.map(|sig| (s, sig));
     }
