@@ -88,6 +88,40 @@ impl LoopCheck {
         }
     }
 
+    /// Candidates seen so far.
+    pub fn seen(&self) -> usize {
+        self.loops.len()
+    }
+
+    /// Forgets every candidate seen but those of `keep` (edge indices),
+    /// which keep what was found of their pairs: a check over a window of
+    /// the newest candidates holds memory for the window alone.
+    pub fn retain(&mut self, keep: &[usize]) {
+        let mut held: Vec<usize> = (keep.iter())
+            .filter_map(|k| self.position.get(k).copied())
+            .collect();
+        held.sort_unstable();
+        held.dedup();
+        let words = held.len().div_ceil(64);
+        let adjacent: Vec<Vec<u64>> = (held.iter())
+            .map(|&p| {
+                let mut row = vec![0u64; words];
+                for (v, &q) in held.iter().enumerate() {
+                    if self.adjacent[p][q / 64] >> (q % 64) & 1 == 1 {
+                        row[v / 64] |= 1 << (v % 64);
+                    }
+                }
+                row
+            })
+            .collect();
+        let loops = held.iter().map(|&p| self.loops[p].clone()).collect();
+        let edges: Vec<usize> = held.iter().map(|&p| self.edges[p]).collect();
+        self.position = edges.iter().enumerate().map(|(p, &k)| (k, p)).collect();
+        self.edges = edges;
+        self.loops = loops;
+        self.adjacent = adjacent;
+    }
+
     /// The largest set found of `candidates` consistent with each other
     /// (as [`consistent_loops`]); those not seen before are first checked
     /// against every candidate seen. Candidates seen before but not among
@@ -487,6 +521,15 @@ mod tests {
             check.check(&graph, &rest).unwrap(),
             consistent_loops(&graph, &rest, CHI2_3_999).unwrap()
         );
+        // Forgetting all but the newest half keeps what was found of them.
+        let newest = &all[all.len() / 2..];
+        check.retain(newest);
+        assert_eq!(check.seen(), newest.len());
+        assert_eq!(
+            check.check(&graph, newest).unwrap(),
+            consistent_loops(&graph, newest, CHI2_3_999).unwrap()
+        );
+        assert_eq!(check.seen(), newest.len());
     }
 
     #[test]

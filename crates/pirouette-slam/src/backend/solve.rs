@@ -19,6 +19,13 @@ use pirouette_graph::{optimise, Edge as GraphEdge, OptimiseConfig, PoseGraph};
 /// closures whose cycle with the chain exceeds it do not agree.
 pub(crate) const GATE: f64 = CHI2_3_999;
 
+/// The newest loops (not dropped) checked against each other before a
+/// solve, at most: older ones passed the checks of the solves before,
+/// and are used while the solution does not contradict them. The check
+/// then holds a bit per pair of this many (128 kB), and its time stays
+/// bounded however many loops a long log closes.
+pub(crate) const CHECK_WINDOW: usize = 1024;
+
 /// What an edge is to the solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Role {
@@ -105,9 +112,9 @@ impl Graph {
         graph
     }
 
-    /// Solves the graph (the first pose held) with `config`: the loops not
-    /// dropped checked pairwise and only the largest consistent set of them
-    /// used; the edges the solution contradicts beyond [`GATE`] (but the
+    /// Solves the graph (the first pose held) with `config`: the newest
+    /// loops not dropped ([`CHECK_WINDOW`]) checked pairwise and only the
+    /// largest consistent set of them used; the edges the solution contradicts beyond [`GATE`] (but the
     /// chain's) dropped for good, and the graph solved again without them
     /// (where that fails, the first solution stands). Where the first
     /// solve fails, the poses stay as they were: `false`.
@@ -120,8 +127,13 @@ impl Graph {
         let loops: Vec<usize> = (0..n)
             .filter(|&k| self.roles[k] == Role::Loop && !self.dropped[k])
             .collect();
+        // The newest loops are checked; older ones passed checks before.
+        let checked = &loops[loops.len().saturating_sub(CHECK_WINDOW)..];
+        if self.check.seen() >= 2 * CHECK_WINDOW {
+            self.check.retain(checked);
+        }
         let mut used: Vec<bool> = self.dropped.iter().map(|d| !d).collect();
-        if let Ok(Some(c)) = self.check.check(&self.graph, &loops) {
+        if let Ok(Some(c)) = self.check.check(&self.graph, checked) {
             for k in c.dropped {
                 used[k] = false;
             }
