@@ -22,8 +22,8 @@ pub(crate) const GATE: f64 = CHI2_3_999;
 /// The newest loops (not dropped) checked against each other before a
 /// solve, at most: older ones passed the checks of the solves before,
 /// and are used while the solution does not contradict them. The check
-/// then holds a bit per pair of this many (128 kB), and its time stays
-/// bounded however many loops a long log closes.
+/// then holds at most a bit per pair of twice this many (512 kB), and its
+/// time stays bounded however many loops a long log closes.
 pub(crate) const CHECK_WINDOW: usize = 1024;
 
 /// What an edge is to the solve.
@@ -114,10 +114,11 @@ impl Graph {
 
     /// Solves the graph (the first pose held) with `config`: the newest
     /// loops not dropped ([`CHECK_WINDOW`]) checked pairwise and only the
-    /// largest consistent set of them used; the edges the solution contradicts beyond [`GATE`] (but the
-    /// chain's) dropped for good, and the graph solved again without them
-    /// (where that fails, the first solution stands). Where the first
-    /// solve fails, the poses stay as they were: `false`.
+    /// largest consistent set of them used; the edges the solution
+    /// contradicts beyond [`GATE`] (but the chain's) dropped for good, and
+    /// the graph solved again without them (where that fails, the first
+    /// solution stands). Where the first solve fails, the poses stay as
+    /// they were: `false`.
     ///
     /// Loops are checked along the chain of edges `k → k + 1` (the first
     /// of each pair); where that does not join every node, or an edge's
