@@ -62,8 +62,9 @@ pub struct LoopClosure {
     /// Whether the place index found it (the estimate put the scan too far
     /// from the earlier one for the search near it).
     pub recognised: bool,
-    /// Whether the pose graph kept it (a match the rest of the graph
-    /// contradicts is dropped).
+    /// Whether the graph's last solve used it: a match the solution
+    /// contradicts is dropped, and one the newest loops' pairwise check
+    /// finds inconsistent with the rest is left out.
     pub kept: bool,
 }
 
