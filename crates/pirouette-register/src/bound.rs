@@ -42,15 +42,22 @@ impl Pyramid<'_> {
     /// exhaustive search's order: its rounding, at `h = 0`).
     #[inline]
     fn sum(&self, h: usize, cells: &[(i64, i64)], a: i64, b: i64) -> f32 {
-        let mut s = 0f32;
         if h == 0 {
-            for &(i, j) in cells {
-                s += self.field.cell(i + a, j + b);
-            }
+            self.field.cells_sum(cells, a, b)
         } else {
-            s = self.field.pooled_sum(self.levels, h, cells, a, b);
+            self.field.pooled_sum(self.levels, h, cells, a, b)
         }
-        s
+    }
+
+    /// [`Pyramid::sum`] at `(a, b)`, `(a + d, b)`, `(a, b + d)` and
+    /// `(a + d, b + d)`, in one pass over the cells.
+    #[inline]
+    fn sum4(&self, h: usize, cells: &[(i64, i64)], a: i64, b: i64, d: i64) -> [f32; 4] {
+        if h == 0 {
+            self.field.cells_sum4(cells, a, b, d)
+        } else {
+            self.field.pooled_sum4(self.levels, h, cells, a, b, d)
+        }
     }
 }
 
@@ -214,8 +221,8 @@ pub(crate) fn search_rotation(
     let top = pyramid.top;
     // The bound of the block of side 2ʰ from `(a0, b0)`, clipped to the
     // lattice; at h = 0 the pose's exact score.
-    let bound = |a0: i64, b0: i64, h: usize| -> f64 {
-        let sum = pyramid.sum(h, cells, a0, b0) as f64;
+    let bound_of = |sum: f32, a0: i64, b0: i64, h: usize| -> f64 {
+        let sum = sum as f64;
         if h == 0 {
             sum + prior.at(a0, b0)
         } else {
@@ -237,7 +244,14 @@ pub(crate) fn search_rotation(
         .step_by(step)
         .flat_map(|b0| (-block.nx..=block.nx).step_by(step).map(move |a0| (a0, b0)))
         .filter(|&(a0, b0)| !left_out(a0, b0, top))
-        .map(|(a0, b0)| (a0, b0, top, bound(a0, b0, top)))
+        .map(|(a0, b0)| {
+            (
+                a0,
+                b0,
+                top,
+                bound_of(pyramid.sum(top, cells, a0, b0), a0, b0, top),
+            )
+        })
         .collect();
     let mut scored = stack.len();
     stack.sort_by(|x, y| x.3.total_cmp(&y.3));
@@ -257,11 +271,13 @@ pub(crate) fn search_rotation(
         }
         let half = 1i64 << (h - 1);
         children.clear();
-        for (da, db) in [(0, 0), (half, 0), (0, half), (half, half)] {
+        // The four children's sums in one pass over the cells.
+        let sums = pyramid.sum4(h - 1, cells, a0, b0, half);
+        for ((da, db), sum) in [(0, 0), (half, 0), (0, half), (half, half)].into_iter().zip(sums) {
             let (a, b) = (a0 + da, b0 + db);
             if a <= block.nx && b <= block.ny && !left_out(a, b, h - 1) {
                 scored += 1;
-                let v = bound(a, b, h - 1);
+                let v = bound_of(sum, a, b, h - 1);
                 if v >= best.get() + margin_ln {
                     children.push((a, b, h - 1, v));
                 }

@@ -618,11 +618,7 @@ impl<'p> Lattice<'p> {
     /// cells are `cells`: the field's cells summed in the exhaustive
     /// search's order with its arithmetic, plus the prior.
     fn score(&self, field: &LikelihoodField, cells: &[(i64, i64)], a: i64, b: i64, kt: i64) -> f64 {
-        let mut sum = 0f32;
-        for &(i, j) in cells {
-            sum += field.cell(i + a, j + b);
-        }
-        sum as f64 + self.prior_at(a, b, kt)
+        field.cells_sum(cells, a, b) as f64 + self.prior_at(a, b, kt)
     }
 
     /// How many lattice poses a Gaussian posterior of `covariance` holds
@@ -900,32 +896,13 @@ const BATCH_ROTATIONS: usize = 64;
 /// The summed field value of the endpoint cells `cells` translated by every
 /// `(a, b)` in `[-nx, nx] × [-ny, ny]` cells, row-major in `b`.
 fn lattice_slab(field: &LikelihoodField, cells: &[(i64, i64)], nx: i64, ny: i64) -> Vec<f32> {
-    let (min_cell, width, height, values) = field.raw();
-    let floor = field.floor();
     let sx = (2 * nx + 1) as usize;
     let mut slab = vec![0f32; sx * (2 * ny + 1) as usize];
     for &(ci, cj) in cells {
-        let (x0, y0) = (ci - min_cell.0, cj - min_cell.1);
         for b in -ny..=ny {
-            let y = y0 + b;
-            let row = &mut slab[(b + ny) as usize * sx..][..sx];
-            if y < 0 || y >= height as i64 {
-                row.iter_mut().for_each(|v| *v += floor);
-                continue;
-            }
-            let field_row = &values[y as usize * width..][..width];
-            // The translations that land this endpoint inside the field's
-            // row (`a_lo..a_hi`) add its values, slice to slice (a loop the
-            // compiler vectorises); the others add the floor.
-            let a_lo = (-x0).clamp(-nx, nx + 1);
-            let a_hi = (width as i64 - x0).clamp(a_lo, nx + 1);
-            let (left, rest) = row.split_at_mut((a_lo + nx) as usize);
-            let (inside, right) = rest.split_at_mut((a_hi - a_lo) as usize);
-            left.iter_mut().chain(right.iter_mut()).for_each(|v| *v += floor);
-            if !inside.is_empty() {
-                let from = &field_row[(x0 + a_lo) as usize..][..inside.len()];
-                inside.iter_mut().zip(from).for_each(|(v, f)| *v += f);
-            }
+            // The translations along a row add the field's row there, a
+            // slice at a time (a loop the compiler vectorises).
+            field.add_row(ci - nx, cj + b, &mut slab[(b + ny) as usize * sx..][..sx]);
         }
     }
     slab

@@ -30,10 +30,13 @@ use std::sync::OnceLock;
 /// time).
 ///
 /// # Memory
-/// About 5 bytes per cell of the points' extent (plus a border of `3σ`):
-/// value and seen floor; four more once a branch and bound asks for the
-/// pooled levels, four more (the squared distances) in a field that
-/// grows; and 16 bytes per point.
+/// The lattice is kept in tiles of 32 × 32 cells, and only
+/// tiles within reach of an obstacle point or on seen floor (and the
+/// tiles just before them, whose pooled blocks reach into them) are
+/// stored: about 9 bytes per cell of those tiles (value, squared distance
+/// and seen floor), four more once a branch and bound asks for the pooled levels, and 16
+/// bytes per point. A laser's submap out to 40 m stores about a
+/// fifteenth of the box its points span.
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
     /// The obstacle points, bucketed for nearest-point queries.
@@ -44,23 +47,23 @@ pub struct LikelihoodField {
     resolution_m: f64,
     /// Cells about a point the lattice's Gaussian reaches.
     reach: i64,
-    /// Cell index of storage element 0.
-    min_cell: (i64, i64),
-    width: usize,
-    height: usize,
+    /// Where each tile's cells are stored.
+    table: Table,
+    /// The stored tiles' values, [`TILE_CELLS`] a tile, row-major within
+    /// it; tile 0 is every tile not stored: all floor.
     values: Vec<f32>,
-    /// Squared distance from each cell centre to the nearest point within
-    /// `reach` cells (infinite beyond); kept once the field has grown
-    /// (empty in a field made at once, which needs it no more).
+    /// The squared distance from each stored cell's centre to the nearest
+    /// point within `reach` cells (infinite beyond), as `values`.
     d2: Vec<f32>,
-    /// Cells the map has seen free (empty: none).
+    /// The stored tiles' cells the map has seen free, as `values` (empty:
+    /// none).
     free: Vec<bool>,
     /// The max-pooled levels `1..=POOLED_LEVELS` (index 0 unused; see
-    /// [`LikelihoodField::pooled`]): per cell from `−PAD`, the largest
-    /// value over the block of `2ʰ` cells a side starting there, quantised
-    /// upward to a byte. Made when a branch and bound first asks for them
-    /// (a registration that scores every pose never does), then kept as
-    /// the field grows.
+    /// [`LikelihoodField::pooled`]), stored as `values`: per cell, the
+    /// largest value over the block of `2ʰ` cells a side starting there,
+    /// quantised upward to a byte. Made when a branch and bound first asks
+    /// for them (a registration that scores every pose never does), then
+    /// kept as the field grows.
     levels: OnceLock<Vec<Vec<u8>>>,
     /// The quantisation's lowest value and step (see [`LikelihoodField::quantum`]).
     lowest: f64,
@@ -79,13 +82,186 @@ pub const CUTOFF_SIGMAS: f64 = 6.0;
 /// `2⁴ = 16` cells a side.
 pub(crate) const POOLED_LEVELS: usize = 4;
 
-/// Pooled levels also hold the blocks starting this many cells before the
-/// lattice (those that reach into it).
+/// A pooled block starting up to this many cells before (below or left
+/// of) a cell reaches it.
 const PAD: i64 = (1 << POOLED_LEVELS) - 1;
 
-/// Cells added beyond what a growing field needs, each side, at least
-/// (more for larger fields), so that growth reallocates seldom.
-const GROWTH_MARGIN_CELLS: i64 = 64;
+/// `log₂` of a tile's side.
+const TILE_SHIFT: u32 = 5;
+
+/// A tile's side, cells: more than [`PAD`], so that a block reaches at
+/// most the tiles right of, above and diagonally from its own.
+const TILE: i64 = 1 << TILE_SHIFT;
+
+/// Cells a tile holds.
+const TILE_CELLS: usize = (TILE * TILE) as usize;
+
+/// Tiles added beyond what a growing table needs, each side, at least
+/// (more for larger ones), so that it grows seldom.
+const GROWTH_MARGIN_TILES: i64 = 4;
+
+/// Where each tile of a box of tiles is stored: the index of its first
+/// cell (0: not stored, tile 0, as is every tile beyond the box).
+#[derive(Debug, Clone, Default)]
+struct Table {
+    /// Tile index of element 0.
+    min: (i64, i64),
+    width: usize,
+    height: usize,
+    starts: Vec<usize>,
+}
+
+/// A [`Table`] borrowed, its fields in locals for an inner loop.
+#[derive(Clone, Copy)]
+struct TableView<'t> {
+    min: (i64, i64),
+    width: u64,
+    height: u64,
+    starts: &'t [usize],
+}
+
+impl TableView<'_> {
+    /// Where cell `(i, j)` is stored (see [`Table::locate`]).
+    #[inline(always)]
+    fn locate(&self, i: i64, j: i64) -> usize {
+        let (x, y) = (
+            ((i >> TILE_SHIFT) - self.min.0) as u64,
+            ((j >> TILE_SHIFT) - self.min.1) as u64,
+        );
+        // Below the box, the differences wrap to beyond it.
+        let start = if x < self.width && y < self.height {
+            self.starts[(y * self.width + x) as usize]
+        } else {
+            0
+        };
+        start + (((j & (TILE - 1)) << TILE_SHIFT) | (i & (TILE - 1))) as usize
+    }
+}
+
+/// Visits, for each of `cells` moved by `(a, b)`, where the cell and
+/// the three `d` (`< TILE`) to its right, above and diagonally from it are
+/// stored: one lookup of the table where all four lie in one tile.
+#[inline(always)]
+fn corners(
+    table: TableView,
+    cells: &[(i64, i64)],
+    a: i64,
+    b: i64,
+    d: i64,
+    mut visit: impl FnMut([usize; 4]),
+) {
+    let up = (d << TILE_SHIFT) as usize;
+    let du = d as usize;
+    for &(ci, cj) in cells {
+        let (i, j) = (ci + a, cj + b);
+        if (i & (TILE - 1)) + d < TILE && (j & (TILE - 1)) + d < TILE {
+            let k = table.locate(i, j);
+            visit([k, k + du, k + up, k + up + du]);
+        } else {
+            visit([
+                table.locate(i, j),
+                table.locate(i + d, j),
+                table.locate(i, j + d),
+                table.locate(i + d, j + d),
+            ]);
+        }
+    }
+}
+
+impl Table {
+    /// The table for an inner loop.
+    #[inline]
+    fn view(&self) -> TableView<'_> {
+        TableView {
+            min: self.min,
+            width: self.width as u64,
+            height: self.height as u64,
+            starts: &self.starts,
+        }
+    }
+
+    /// The first cell of tile `(ti, tj)`: 0 where not stored.
+    #[inline]
+    fn start(&self, ti: i64, tj: i64) -> usize {
+        let (x, y) = ((ti - self.min.0) as u64, (tj - self.min.1) as u64);
+        // Below the box, the differences wrap to beyond it.
+        if x < self.width as u64 && y < self.height as u64 {
+            self.starts[y as usize * self.width + x as usize]
+        } else {
+            0
+        }
+    }
+
+    /// The slot of tile `(ti, tj)`: 0 where not stored.
+    #[inline]
+    fn slot(&self, ti: i64, tj: i64) -> usize {
+        self.start(ti, tj) / TILE_CELLS
+    }
+
+    /// Where cell `(i, j)` is stored (in tile 0, the floor's, where its
+    /// tile is not stored).
+    #[inline]
+    fn locate(&self, i: i64, j: i64) -> usize {
+        self.start(i >> TILE_SHIFT, j >> TILE_SHIFT)
+            + (((j & (TILE - 1)) << TILE_SHIFT) | (i & (TILE - 1))) as usize
+    }
+
+    /// Grows the box to hold tiles `lo..=hi`, with a margin.
+    fn hold(&mut self, lo: (i64, i64), hi: (i64, i64)) {
+        let old_hi = (
+            self.min.0 + self.width as i64 - 1,
+            self.min.1 + self.height as i64 - 1,
+        );
+        let empty = self.starts.is_empty();
+        if !empty && lo.0 >= self.min.0 && lo.1 >= self.min.1 && hi.0 <= old_hi.0 && hi.1 <= old_hi.1 {
+            return;
+        }
+        let (lo, hi) = if empty {
+            (lo, hi)
+        } else {
+            (
+                (lo.0.min(self.min.0), lo.1.min(self.min.1)),
+                (hi.0.max(old_hi.0), hi.1.max(old_hi.1)),
+            )
+        };
+        let margin = GROWTH_MARGIN_TILES.max((hi.0 - lo.0) / 8).max((hi.1 - lo.1) / 8);
+        let (lo, hi) = ((lo.0 - margin, lo.1 - margin), (hi.0 + margin, hi.1 + margin));
+        let (width, height) = ((hi.0 - lo.0 + 1) as usize, (hi.1 - lo.1 + 1) as usize);
+        let mut starts = vec![0usize; width * height];
+        if !empty {
+            for y in 0..self.height {
+                let to = (self.min.1 + y as i64 - lo.1) as usize * width + (self.min.0 - lo.0) as usize;
+                starts[to..to + self.width].copy_from_slice(&self.starts[y * self.width..][..self.width]);
+            }
+        }
+        *self = Self {
+            min: lo,
+            width,
+            height,
+            starts,
+        };
+    }
+
+    /// The stored tiles with their tile indices.
+    fn stored(&self) -> impl Iterator<Item = ((i64, i64), usize)> + '_ {
+        self.starts
+            .iter()
+            .enumerate()
+            .filter(|(_, &s)| s != 0)
+            .map(|(k, &s)| {
+                (
+                    (
+                        self.min.0 + (k % self.width) as i64,
+                        self.min.1 + (k / self.width) as i64,
+                    ),
+                    s / TILE_CELLS,
+                )
+            })
+    }
+}
+
+/// Cells `lo..=hi` (inclusive, each axis).
+type Rect = ((i64, i64), (i64, i64));
 
 impl LikelihoodField {
     /// The field of the cells of `grid` that are occupied with probability
@@ -161,7 +337,7 @@ impl LikelihoodField {
     fn build(
         points: &[Point2],
         free_space: Option<(&OccupancyGrid, f64)>,
-        region: Option<((i64, i64), (i64, i64))>,
+        region: Option<Rect>,
         resolution_m: f64,
         sigma_m: f64,
         epsilon: f64,
@@ -181,43 +357,26 @@ impl LikelihoodField {
             .copied()
             .filter(|p| p.x.is_finite() && p.y.is_finite() && near_region(p))
             .collect();
-        let Some(extent) = lattice_extent(&points, free_space, region, reach, &|p| field.cell_of(p)) else {
-            field.points.add(&points);
-            return field;
-        };
-        field.resize(extent);
         if let Some((grid, threshold)) = free_space {
-            let reaching = grid.log_odds_reaching(threshold);
-            let (min_cell, width) = (field.min_cell, field.width);
-            field.free = vec![false; field.width * field.height];
-            for (k, f) in field.free.iter_mut().enumerate() {
-                let (i, j) = (min_cell.0 + (k % width) as i64, min_cell.1 + (k / width) as i64);
-                *f = grid.log_odds(i, j) < reaching;
+            field.mark_free(grid, threshold, region);
+        }
+        for p in &points {
+            field.stamp(p, region, false);
+        }
+        // Each cell's value once, from its nearest point.
+        for k in 0..field.values.len() {
+            if field.d2[k].is_finite() {
+                let free = field.free.get(k).copied().unwrap_or(false);
+                field.values[k] = field.value_of(field.d2[k], free);
             }
         }
-        let mut scratch = Vec::new();
-        for p in &points {
-            field.stamp_distances(p, &mut scratch);
-        }
-        // Most cells lie beyond every point's reach, where the value is
-        // the base's logarithm alone.
-        let (ln_eps, ln_eps_free) = (epsilon.ln() as f32, epsilon_free.ln() as f32);
-        for k in 0..field.values.len() {
-            let free = field.free.get(k).copied().unwrap_or(false);
-            field.values[k] = match (field.d2[k].is_infinite(), free) {
-                (true, true) => ln_eps_free,
-                (true, false) => ln_eps,
-                (false, _) => field.value_of(field.d2[k], free),
-            };
-        }
         field.points.add(&points);
-        // Kept only by a field that grows (see `insert`).
-        field.d2 = Vec::new();
         field
     }
 
     /// A field of no points and no cells.
     fn empty(resolution_m: f64, sigma_m: f64, epsilon: f64, epsilon_free: f64) -> Self {
+        let floor = epsilon.ln() as f32;
         let mut field = Self {
             points: Buckets::new(CUTOFF_SIGMAS * sigma_m),
             epsilon,
@@ -226,16 +385,14 @@ impl LikelihoodField {
             resolution_m,
             // Beyond 3σ the Gaussian adds less than 1.2 % to the floor.
             reach: (3.0 * sigma_m / resolution_m).ceil() as i64 + 1,
-            min_cell: (0, 0),
-            width: 0,
-            height: 0,
-            values: Vec::new(),
-            d2: Vec::new(),
+            table: Table::default(),
+            values: vec![floor; TILE_CELLS],
+            d2: vec![f32::INFINITY; TILE_CELLS],
             free: Vec::new(),
             levels: OnceLock::new(),
             lowest: 0.0,
             step: 1.0,
-            floor: epsilon.ln() as f32,
+            floor,
             floor_q: 0,
         };
         (field.lowest, field.step) = field.quantum();
@@ -243,52 +400,91 @@ impl LikelihoodField {
         field
     }
 
-    /// Adds obstacle points (non-finite ones left out): the lattice grows
-    /// to hold them (with room to spare), and only the cells within each
-    /// point's reach change. The field is then what
-    /// [`LikelihoodField::from_points`] makes of all its points, but for
-    /// the last bits of the values' rounding.
+    /// Marks the cells of `grid` below `threshold` (within `region`) seen
+    /// free: their value becomes `ln ε_free`.
+    fn mark_free(&mut self, grid: &OccupancyGrid, threshold: f64, region: Option<Rect>) {
+        let (i0, j0, w, h) = grid.extent();
+        if w == 0 || h == 0 {
+            return;
+        }
+        let (mut lo, mut hi) = ((i0, j0), (i0 + w as i64 - 1, j0 + h as i64 - 1));
+        if let Some((a, b)) = region {
+            (lo, hi) = ((lo.0.max(a.0), lo.1.max(a.1)), (hi.0.min(b.0), hi.1.min(b.1)));
+            if lo.0 > hi.0 || lo.1 > hi.1 {
+                return;
+            }
+        }
+        let reaching = grid.log_odds_reaching(threshold);
+        self.free = vec![false; self.values.len()];
+        let ln_eps_free = self.epsilon_free.ln() as f32;
+        for tj in (lo.1 >> TILE_SHIFT)..=(hi.1 >> TILE_SHIFT) {
+            for ti in (lo.0 >> TILE_SHIFT)..=(hi.0 >> TILE_SHIFT) {
+                let (x0, y0) = ((ti << TILE_SHIFT).max(lo.0), (tj << TILE_SHIFT).max(lo.1));
+                let (x1, y1) = (
+                    ((ti << TILE_SHIFT) + TILE - 1).min(hi.0),
+                    ((tj << TILE_SHIFT) + TILE - 1).min(hi.1),
+                );
+                let seen = |i: i64, j: i64| grid.log_odds(i, j) < reaching;
+                if !(y0..=y1).any(|j| (x0..=x1).any(|i| seen(i, j))) {
+                    continue;
+                }
+                self.store(((x0 - PAD, y0 - PAD), (x1, y1)));
+                for j in y0..=y1 {
+                    for i in x0..=x1 {
+                        if seen(i, j) {
+                            let k = self.table.locate(i, j);
+                            self.free[k] = true;
+                            self.values[k] = ln_eps_free;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Stores every tile holding a cell of `rect` not stored yet (all
+    /// floor and unseen; their pooled levels the floor, which they are
+    /// as long as nothing in reach of their blocks changed).
+    fn store(&mut self, (lo, hi): Rect) {
+        let (tlo, thi) = (
+            (lo.0 >> TILE_SHIFT, lo.1 >> TILE_SHIFT),
+            (hi.0 >> TILE_SHIFT, hi.1 >> TILE_SHIFT),
+        );
+        self.table.hold(tlo, thi);
+        for tj in tlo.1..=thi.1 {
+            for ti in tlo.0..=thi.0 {
+                if self.table.slot(ti, tj) != 0 {
+                    continue;
+                }
+                let k =
+                    (tj - self.table.min.1) as usize * self.table.width + (ti - self.table.min.0) as usize;
+                self.table.starts[k] = self.values.len();
+                self.values.resize(self.values.len() + TILE_CELLS, self.floor);
+                self.d2.resize(self.d2.len() + TILE_CELLS, f32::INFINITY);
+                if !self.free.is_empty() {
+                    self.free.resize(self.free.len() + TILE_CELLS, false);
+                }
+                if let Some(levels) = self.levels.get_mut() {
+                    for level in levels.iter_mut().skip(1) {
+                        level.resize(level.len() + TILE_CELLS, self.floor_q);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds obstacle points (non-finite ones left out), each changing only
+    /// the cells within its reach. The field is then what
+    /// [`LikelihoodField::from_points`] makes of all its points, to the
+    /// bit.
     pub fn insert(&mut self, points: &[Point2]) {
         let points: Vec<Point2> = points
             .iter()
             .copied()
             .filter(|p| p.x.is_finite() && p.y.is_finite())
             .collect();
-        if self.d2.len() != self.values.len() {
-            // A field made at once keeps no distances: found again.
-            self.d2 = vec![f32::INFINITY; self.values.len()];
-            let held: Vec<Point2> = self.points.all().collect();
-            let mut scratch = Vec::new();
-            for p in &held {
-                self.stamp_distances(p, &mut scratch);
-            }
-        }
-        let Some((lo, hi)) = lattice_extent(&points, None, None, self.reach, &|p| self.cell_of(p)) else {
-            return;
-        };
-        let (old_lo, old_hi) = (
-            self.min_cell,
-            (
-                self.min_cell.0 + self.width as i64 - 1,
-                self.min_cell.1 + self.height as i64 - 1,
-            ),
-        );
-        let inside =
-            self.width > 0 && lo.0 >= old_lo.0 && lo.1 >= old_lo.1 && hi.0 <= old_hi.0 && hi.1 <= old_hi.1;
-        if !inside {
-            let (lo, hi) = if self.width == 0 {
-                (lo, hi)
-            } else {
-                (
-                    (lo.0.min(old_lo.0), lo.1.min(old_lo.1)),
-                    (hi.0.max(old_hi.0), hi.1.max(old_hi.1)),
-                )
-            };
-            let margin = GROWTH_MARGIN_CELLS.max((hi.0 - lo.0) / 8).max((hi.1 - lo.1) / 8);
-            self.resize(((lo.0 - margin, lo.1 - margin), (hi.0 + margin, hi.1 + margin)));
-        }
         for p in &points {
-            let rect = self.stamp(p);
+            let rect = self.stamp(p, None, true);
             self.pool_rect(rect);
         }
         self.points.add(&points);
@@ -298,77 +494,7 @@ impl LikelihoodField {
     /// the cell holding `p` (a point added there would add little).
     pub fn covers(&self, p: Point2) -> bool {
         let (i, j) = self.cell_of(&p);
-        let (x, y) = (i - self.min_cell.0, j - self.min_cell.1);
-        let inside = x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height;
-        inside
-            && self
-                .d2
-                .get(y as usize * self.width + x as usize)
-                .is_some_and(|&d| (d as f64) <= 0.25 * self.resolution_m * self.resolution_m)
-    }
-
-    /// The lattice made to cover `lo..=hi` (cells), keeping what it held
-    /// there; new cells are the floor, beyond every point and unseen.
-    fn resize(&mut self, (lo, hi): ((i64, i64), (i64, i64))) {
-        let (width, height) = ((hi.0 - lo.0 + 1) as usize, (hi.1 - lo.1 + 1) as usize);
-        let mut values = vec![self.floor; width * height];
-        let mut d2 = vec![f32::INFINITY; width * height];
-        let mut free = if self.free.is_empty() {
-            Vec::new()
-        } else {
-            vec![false; width * height]
-        };
-        // The old rows' overlap with the new block.
-        let (x0, x1) = (
-            self.min_cell.0.max(lo.0),
-            (self.min_cell.0 + self.width as i64 - 1).min(hi.0),
-        );
-        for y in 0..self.height {
-            let j = self.min_cell.1 + y as i64;
-            if j < lo.1 || j > hi.1 || x0 > x1 {
-                continue;
-            }
-            let n = (x1 - x0 + 1) as usize;
-            let from = y * self.width + (x0 - self.min_cell.0) as usize;
-            let to = (j - lo.1) as usize * width + (x0 - lo.0) as usize;
-            values[to..to + n].copy_from_slice(&self.values[from..from + n]);
-            d2[to..to + n].copy_from_slice(&self.d2[from..from + n]);
-            if !free.is_empty() {
-                free[to..to + n].copy_from_slice(&self.free[from..from + n]);
-            }
-        }
-        // The levels hold over a block that holds the old one: a block
-        // starting beyond the old one's padded rows and columns lies in new
-        // cells (the floor) alone, and blocks the old levels held reach the
-        // same values as before (new cells are the floor, as the levels took
-        // them to be).
-        let holds_old = lo.0 <= self.min_cell.0
-            && lo.1 <= self.min_cell.1
-            && hi.0 >= self.min_cell.0 + self.width as i64 - 1
-            && hi.1 >= self.min_cell.1 + self.height as i64 - 1;
-        let (old_w, old_h) = self.level_dims();
-        let floor_q = self.floor_q;
-        match self.levels.get_mut() {
-            Some(levels) if holds_old => {
-                let new_w = width + PAD as usize;
-                let (dx, dy) = (
-                    (self.min_cell.0 - lo.0) as usize,
-                    (self.min_cell.1 - lo.1) as usize,
-                );
-                for level in levels.iter_mut().filter(|l| !l.is_empty()) {
-                    let mut moved = vec![floor_q; new_w * (height + PAD as usize)];
-                    for y in 0..old_h {
-                        let to = (y + dy) * new_w + dx;
-                        moved[to..to + old_w].copy_from_slice(&level[y * old_w..(y + 1) * old_w]);
-                    }
-                    *level = moved;
-                }
-            }
-            _ => self.levels = OnceLock::new(),
-        }
-        self.min_cell = lo;
-        (self.width, self.height) = (width, height);
-        (self.values, self.d2, self.free) = (values, d2, free);
+        (self.d2[self.table.locate(i, j)] as f64) <= 0.25 * self.resolution_m * self.resolution_m
     }
 
     /// The cell holding `p`.
@@ -379,66 +505,46 @@ impl LikelihoodField {
         )
     }
 
-    /// The cells within `reach` of point `p` on the lattice, as storage
-    /// ranges `(x_lo..=x_hi, y_lo..=y_hi)`; `None` where none lies on it.
-    fn reach_of(&self, p: &Point2) -> Option<((usize, usize), (usize, usize))> {
+    /// Lowers the squared distances within `p`'s reach (cut to `region`,
+    /// where given) to `p`'s, storing the tiles that needs, and with
+    /// `values` raises the values where they fell; the cells touched,
+    /// `None` where none.
+    fn stamp(&mut self, p: &Point2, region: Option<Rect>, values: bool) -> Option<Rect> {
         let (i, j) = self.cell_of(p);
-        let (ci, cj) = (i - self.min_cell.0, j - self.min_cell.1);
-        let (x_lo, x_hi) = (
-            (ci - self.reach).max(0),
-            (ci + self.reach).min(self.width as i64 - 1),
-        );
-        let (y_lo, y_hi) = (
-            (cj - self.reach).max(0),
-            (cj + self.reach).min(self.height as i64 - 1),
-        );
-        (x_lo <= x_hi && y_lo <= y_hi)
-            .then_some(((x_lo as usize, x_hi as usize), (y_lo as usize, y_hi as usize)))
-    }
-
-    /// Lowers the squared distances within `p`'s reach to `p`'s
-    /// (`scratch`: room for the squared offsets of its columns).
-    fn stamp_distances(&mut self, p: &Point2, scratch: &mut Vec<f64>) {
-        let Some(((x_lo, x_hi), (y_lo, y_hi))) = self.reach_of(p) else {
-            return;
-        };
+        let (mut lo, mut hi) = ((i - self.reach, j - self.reach), (i + self.reach, j + self.reach));
+        if let Some((a, b)) = region {
+            (lo, hi) = ((lo.0.max(a.0), lo.1.max(a.1)), (hi.0.min(b.0), hi.1.min(b.1)));
+            if lo.0 > hi.0 || lo.1 > hi.1 {
+                return None;
+            }
+        }
+        // The blocks that reach the cells touched start in these.
+        self.store(((lo.0 - PAD, lo.1 - PAD), hi));
         let res = self.resolution_m;
-        // The squared offsets across the columns, shared by every row.
-        scratch.clear();
-        scratch.extend((x_lo..=x_hi).map(|x| {
-            let ddx = ((self.min_cell.0 + x as i64) as f64 + 0.5) * res - p.x;
-            ddx * ddx
-        }));
-        for y in y_lo..=y_hi {
-            let ddy = ((self.min_cell.1 + y as i64) as f64 + 0.5) * res - p.y;
+        for y in lo.1..=hi.1 {
+            let ddy = (y as f64 + 0.5) * res - p.y;
             let dy2 = ddy * ddy;
-            let row = &mut self.d2[y * self.width + x_lo..=y * self.width + x_hi];
-            for (d, &dx2) in row.iter_mut().zip(scratch.iter()) {
-                *d = d.min((dx2 + dy2) as f32);
-            }
-        }
-    }
-
-    /// Lowers the squared distances within `p`'s reach to `p`'s and
-    /// raises the values where they fell; the storage rectangle touched.
-    fn stamp(&mut self, p: &Point2) -> Option<((usize, usize), (usize, usize))> {
-        let rect = self.reach_of(p)?;
-        let ((x_lo, x_hi), (y_lo, y_hi)) = rect;
-        let res = self.resolution_m;
-        for y in y_lo..=y_hi {
-            let ddy = ((self.min_cell.1 + y as i64) as f64 + 0.5) * res - p.y;
-            for x in x_lo..=x_hi {
-                let ddx = ((self.min_cell.0 + x as i64) as f64 + 0.5) * res - p.x;
-                let k = y * self.width + x;
-                let d = (ddx * ddx + ddy * ddy) as f32;
-                if d < self.d2[k] {
-                    self.d2[k] = d;
-                    let free = self.free.get(k).copied().unwrap_or(false);
-                    self.values[k] = self.value_of(d, free);
+            // Along the row a tile at a time: its cells lie in a run.
+            let mut x = lo.0;
+            while x <= hi.0 {
+                let end = (x | (TILE - 1)).min(hi.0);
+                let start = self.table.locate(x, y);
+                for (n, xx) in (x..=end).enumerate() {
+                    let ddx = (xx as f64 + 0.5) * res - p.x;
+                    let d = (ddx * ddx + dy2) as f32;
+                    let k = start + n;
+                    if d < self.d2[k] {
+                        self.d2[k] = d;
+                        if values {
+                            let free = self.free.get(k).copied().unwrap_or(false);
+                            self.values[k] = self.value_of(d, free);
+                        }
+                    }
                 }
+                x = end + 1;
             }
         }
-        Some(rect)
+        Some((lo, hi))
     }
 
     /// The lattice value of a cell `d2` (squared) from its nearest point.
@@ -456,14 +562,9 @@ impl LikelihoodField {
     }
 
     /// A value as a level stores it (rounded up).
+    #[inline]
     fn quantise(&self, v: f32) -> u8 {
         ((v as f64 - self.lowest) / self.step).ceil().clamp(0.0, 255.0) as u8
-    }
-
-    /// The levels' row length and rows (the lattice's, with `PAD` more
-    /// cells before each).
-    fn level_dims(&self) -> (usize, usize) {
-        (self.width + PAD as usize, self.height + PAD as usize)
     }
 
     /// The pooled levels (see [`LikelihoodField::pooled`]), made now if
@@ -481,118 +582,99 @@ impl LikelihoodField {
     /// The cells each pooled level holds (what making them costs, per
     /// level).
     pub(crate) fn level_cells(&self) -> usize {
-        let (w, ht) = self.level_dims();
-        w * ht
+        self.values.len()
     }
 
-    /// Every pooled level made anew (from the lattice quantised).
+    /// Every pooled level made anew (from the lattice quantised), a stored
+    /// tile at a time.
     fn pool_all(&self) -> Vec<Vec<u8>> {
+        let n = self.values.len();
         let mut levels = vec![Vec::new(); POOLED_LEVELS + 1];
-        let (w, ht) = self.level_dims();
-        let mut q = vec![self.floor_q; w * ht];
-        for y in 0..self.height {
-            let row = &self.values[y * self.width..][..self.width];
-            let to = &mut q[(y + PAD as usize) * w + PAD as usize..][..self.width];
-            for (t, &v) in to.iter_mut().zip(row) {
-                *t = ((v as f64 - self.lowest) / self.step).ceil().clamp(0.0, 255.0) as u8;
-            }
-        }
+        levels[0] = self.values.iter().map(|&v| self.quantise(v)).collect();
+        let stored: Vec<((i64, i64), usize)> = self.table.stored().collect();
         for h in 1..=POOLED_LEVELS {
             let half = 1usize << (h - 1);
-            let below = if h == 1 { &q } else { &levels[h - 1] };
-            let mut level = vec![self.floor_q; w * ht];
-            for y in 0..ht {
-                let row = &below[y * w..][..w];
-                let up = (y + half < ht).then(|| &below[(y + half) * w..][..w]);
-                let out = &mut level[y * w..][..w];
-                for x in 0..w {
-                    let mut m = row[x];
-                    if x + half < w {
-                        m = m.max(row[x + half]);
-                    } else {
-                        m = m.max(self.floor_q);
+            let mut level = vec![self.floor_q; n];
+            let below = &levels[h - 1];
+            for &((ti, tj), slot) in &stored {
+                // The tile, and those right of, above and diagonally from
+                // it, which its blocks reach.
+                let near = [
+                    slot,
+                    self.table.slot(ti + 1, tj),
+                    self.table.slot(ti, tj + 1),
+                    self.table.slot(ti + 1, tj + 1),
+                ];
+                let get = |x: usize, y: usize| {
+                    let t = near[(x >> TILE_SHIFT) | ((y >> TILE_SHIFT) << 1)];
+                    below[t * TILE_CELLS
+                        + ((y & (TILE as usize - 1)) << TILE_SHIFT)
+                        + (x & (TILE as usize - 1))]
+                };
+                let out = &mut level[slot * TILE_CELLS..][..TILE_CELLS];
+                for y in 0..TILE as usize {
+                    for x in 0..TILE as usize {
+                        out[(y << TILE_SHIFT) + x] = get(x, y)
+                            .max(get(x + half, y))
+                            .max(get(x, y + half))
+                            .max(get(x + half, y + half));
                     }
-                    match up {
-                        Some(up) => {
-                            m = m.max(up[x]);
-                            m = m.max(if x + half < w { up[x + half] } else { self.floor_q });
-                        }
-                        None => m = m.max(self.floor_q),
-                    }
-                    out[x] = m;
                 }
             }
             levels[h] = level;
         }
+        levels[0] = Vec::new();
         levels
     }
 
     /// The levels made anew where a rectangle of the lattice that changed
-    /// (storage ranges, inclusive) reaches: blocks starting up to `2ʰ − 1`
-    /// cells before it.
-    fn pool_rect(&mut self, rect: Option<((usize, usize), (usize, usize))>) {
-        let Some(((x_lo, x_hi), (y_lo, y_hi))) = rect else {
+    /// reaches: blocks starting up to `2ʰ − 1` cells before it.
+    fn pool_rect(&mut self, rect: Option<Rect>) {
+        let Some((lo, hi)) = rect else {
             return;
         };
-        let (w, ht) = self.level_dims();
         let Some(levels) = self.levels.get_mut() else {
             return;
         };
-        let pad = PAD as usize;
-        // In padded coordinates from here.
-        let (x_hi, y_hi) = (x_hi + pad, y_hi + pad);
+        let (table, values) = (&self.table, &self.values);
+        let (lowest, step) = (self.lowest, self.step);
         for h in 1..=POOLED_LEVELS {
-            let half = 1usize << (h - 1);
-            let back = (1usize << h) - 1;
+            let half = 1i64 << (h - 1);
+            let back = (1i64 << h) - 1;
             let (lower, upper) = levels.split_at_mut(h);
             let (below, level) = (&lower[h - 1], &mut upper[0]);
             // Level 0 is the lattice's values quantised.
-            let (values, width, height) = (&self.values, self.width, self.height);
-            let (lowest, step, floor_q) = (self.lowest, self.step, self.floor_q);
-            let get = |x: usize, y: usize| {
+            let get = |i: i64, j: i64| {
+                let k = table.locate(i, j);
                 if h == 1 {
-                    let (vx, vy) = (x.wrapping_sub(pad), y.wrapping_sub(pad));
-                    if vx < width && vy < height {
-                        ((values[vy * width + vx] as f64 - lowest) / step)
-                            .ceil()
-                            .clamp(0.0, 255.0) as u8
-                    } else {
-                        floor_q
-                    }
-                } else if x < w && y < ht {
-                    below[y * w + x]
+                    ((values[k] as f64 - lowest) / step).ceil().clamp(0.0, 255.0) as u8
                 } else {
-                    floor_q
+                    below[k]
                 }
             };
-            for y in (y_lo + pad).saturating_sub(back)..=y_hi {
-                for x in (x_lo + pad).saturating_sub(back)..=x_hi {
-                    level[y * w + x] = get(x, y)
-                        .max(get(x + half, y))
-                        .max(get(x, y + half))
-                        .max(get(x + half, y + half));
+            for j in lo.1 - back..=hi.1 {
+                for i in lo.0 - back..=hi.0 {
+                    let k = table.locate(i, j);
+                    debug_assert!(k >= TILE_CELLS, "a pooled block before a changed cell is stored");
+                    level[k] = get(i, j)
+                        .max(get(i + half, j))
+                        .max(get(i, j + half))
+                        .max(get(i + half, j + half));
                 }
             }
         }
     }
 
     /// At least the largest lattice value over the cells
-    /// `[i, i + 2ʰ) × [j, j + 2ʰ)` (the floor beyond the lattice), to one
-    /// step of the levels' quantisation. At `h = 0`,
-    /// [`LikelihoodField::cell`].
+    /// `[i, i + 2ʰ) × [j, j + 2ʰ)`, to one step of the levels'
+    /// quantisation. At `h = 0`, [`LikelihoodField::cell`].
     #[inline]
     #[cfg(test)]
     pub(crate) fn pooled(&self, h: usize, i: i64, j: i64) -> f32 {
         if h == 0 {
             return self.cell(i, j);
         }
-        let (px, py) = (i - self.min_cell.0 + PAD, j - self.min_cell.1 + PAD);
-        let (w, ht) = self.level_dims();
-        let q = if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < ht {
-            self.levels()[h][py as usize * w + px as usize]
-        } else {
-            self.floor_q
-        };
+        let q = self.levels()[h][self.table.locate(i, j)];
         (self.lowest + q as f64 * self.step) as f32 + f32::EPSILON
     }
 
@@ -610,19 +692,19 @@ impl LikelihoodField {
         a: i64,
         b: i64,
     ) -> f32 {
-        let (w, ht) = self.level_dims();
-        let level = &levels[h];
-        let (dx, dy) = (a - self.min_cell.0 + PAD, b - self.min_cell.1 + PAD);
+        let level = &levels[h][..];
+        let table = self.table.view();
         let mut q: u64 = 0;
         for &(i, j) in cells {
-            let (px, py) = (i + dx, j + dy);
-            q += u64::from(if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < ht {
-                level[py as usize * w + px as usize]
-            } else {
-                self.floor_q
-            });
+            q += u64::from(level[table.locate(i + a, j + b)]);
         }
-        let n = cells.len() as f64;
+        self.pooled_value(cells.len(), q)
+    }
+
+    /// The bound of `n` cells whose quantised values sum to `q`.
+    #[inline]
+    fn pooled_value(&self, n: usize, q: u64) -> f32 {
+        let n = n as f64;
         // Summing n terms in f32 errs by at most (n − 1)·2⁻²⁴ of their
         // magnitudes' sum: twice that, to spare.
         let rounding = n * n * self.lowest.abs() * f64::from(f32::EPSILON);
@@ -646,14 +728,75 @@ impl LikelihoodField {
         self.floor
     }
 
-    /// The value of cell `(i, j)` (the floor outside the stored extent).
+    /// The value of cell `(i, j)` (the floor where nothing is stored).
     #[inline]
     pub fn cell(&self, i: i64, j: i64) -> f32 {
-        let (x, y) = (i - self.min_cell.0, j - self.min_cell.1);
-        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
-            self.values[y as usize * self.width + x as usize]
-        } else {
-            self.floor
+        self.values[self.table.locate(i, j)]
+    }
+
+    /// [`LikelihoodField::cells_sum`] at `(a, b)`, `(a + d, b)`,
+    /// `(a, b + d)` and `(a + d, b + d)` (`0 < d < TILE`), each summed as
+    /// it would be alone, in one pass.
+    #[inline]
+    pub(crate) fn cells_sum4(&self, cells: &[(i64, i64)], a: i64, b: i64, d: i64) -> [f32; 4] {
+        let values = &self.values[..];
+        let mut s = [0f32; 4];
+        corners(self.table.view(), cells, a, b, d, |k| {
+            for (s, k) in s.iter_mut().zip(k) {
+                *s += values[k];
+            }
+        });
+        s
+    }
+
+    /// [`LikelihoodField::pooled_sum`] at `(a, b)`, `(a + d, b)`,
+    /// `(a, b + d)` and `(a + d, b + d)` (`0 < d < TILE`), in one pass.
+    #[inline]
+    pub(crate) fn pooled_sum4(
+        &self,
+        levels: &[Vec<u8>],
+        h: usize,
+        cells: &[(i64, i64)],
+        a: i64,
+        b: i64,
+        d: i64,
+    ) -> [f32; 4] {
+        let level = &levels[h][..];
+        let mut q = [0u64; 4];
+        corners(self.table.view(), cells, a, b, d, |k| {
+            for (q, k) in q.iter_mut().zip(k) {
+                *q += u64::from(level[k]);
+            }
+        });
+        q.map(|q| self.pooled_value(cells.len(), q))
+    }
+
+    /// The values of `cells`, each moved by `(a, b)`, summed in `f32` in
+    /// their order.
+    #[inline]
+    pub(crate) fn cells_sum(&self, cells: &[(i64, i64)], a: i64, b: i64) -> f32 {
+        let (table, values) = (self.table.view(), &self.values[..]);
+        let mut s = 0f32;
+        for &(i, j) in cells {
+            s += values[table.locate(i + a, j + b)];
+        }
+        s
+    }
+
+    /// Adds the values of the cells `(i, j)` to `(i + out.len() − 1, j)`
+    /// to `out`, element by element, a tile's run at a time.
+    pub(crate) fn add_row(&self, i: i64, j: i64, out: &mut [f32]) {
+        let mut x = i;
+        let mut rest = out;
+        while !rest.is_empty() {
+            let run = ((x | (TILE - 1)) - x + 1).min(rest.len() as i64) as usize;
+            let start = self.table.locate(x, j);
+            let (now, later) = rest.split_at_mut(run);
+            now.iter_mut()
+                .zip(&self.values[start..start + run])
+                .for_each(|(v, f)| *v += f);
+            rest = later;
+            x += run as i64;
         }
     }
 
@@ -805,9 +948,7 @@ impl LikelihoodField {
             return self.epsilon;
         }
         let (i, j) = self.cell_of(&p);
-        let (x, y) = (i - self.min_cell.0, j - self.min_cell.1);
-        let inside = x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height;
-        if inside && self.free[y as usize * self.width + x as usize] {
+        if self.free[self.table.locate(i, j)] {
             self.epsilon_free
         } else {
             self.epsilon
@@ -817,11 +958,6 @@ impl LikelihoodField {
     /// The value at `p`, its nearest obstacle point `d2` (squared) away.
     fn value(&self, p: Point2, d2: f64) -> f64 {
         (self.base_at(p) + (1.0 - self.epsilon) * (-d2 / self.two_sigma2).exp()).ln()
-    }
-
-    /// The stored block: `(min_cell, width, height, values)`, row-major.
-    pub(crate) fn raw(&self) -> ((i64, i64), usize, usize, &[f32]) {
-        (self.min_cell, self.width, self.height, &self.values)
     }
 }
 
@@ -924,11 +1060,6 @@ impl Buckets {
         })
     }
 
-    /// Every point held.
-    fn all(&self) -> impl Iterator<Item = Point2> + '_ {
-        self.cells.iter().flatten().map(|c| Point2::new(c[0], c[1]))
-    }
-
     /// The nearest point within the cutoff of `p` and its squared distance.
     fn nearest(&self, p: Point2) -> Option<([f64; 2], f64)> {
         let (i, j) = self.bucket_of(p);
@@ -973,42 +1104,6 @@ fn nearest_of<'a>(
             Some(m) if m.1 <= c.1 => Some(m),
             _ => Some(c),
         })
-}
-
-/// The cells a field's lattice covers: the points with the Gaussian's
-/// `reach` about each, and the free-space grid's stored cells, cut to
-/// `region` where one is given; `None` where nothing is left.
-fn lattice_extent(
-    points: &[Point2],
-    free_space: Option<(&OccupancyGrid, f64)>,
-    region: Option<((i64, i64), (i64, i64))>,
-    reach: i64,
-    cell: &dyn Fn(&Point2) -> (i64, i64),
-) -> Option<((i64, i64), (i64, i64))> {
-    let mut extent: Option<((i64, i64), (i64, i64))> = None;
-    let mut grow = |lo: (i64, i64), hi: (i64, i64)| {
-        extent = Some(match extent {
-            None => (lo, hi),
-            Some((a, b)) => ((a.0.min(lo.0), a.1.min(lo.1)), (b.0.max(hi.0), b.1.max(hi.1))),
-        });
-    };
-    for p in points {
-        let (i, j) = cell(p);
-        grow((i - reach, j - reach), (i + reach, j + reach));
-    }
-    if let Some((grid, _)) = free_space {
-        let (i, j, w, h) = grid.extent();
-        if w > 0 && h > 0 {
-            grow((i, j), (i + w as i64 - 1, j + h as i64 - 1));
-        }
-    }
-    match (extent, region) {
-        (Some((a, b)), Some((lo, hi))) => {
-            let (a, b) = ((a.0.max(lo.0), a.1.max(lo.1)), (b.0.min(hi.0), b.1.min(hi.1)));
-            (a.0 <= b.0 && a.1 <= b.1).then_some((a, b))
-        }
-        (e, _) => e,
-    }
 }
 
 /// The field near a point `q` whose nearest obstacle point `o` stays put:
@@ -1260,5 +1355,97 @@ mod tests {
     fn an_empty_map_is_all_floor() {
         let f = LikelihoodField::from_points(&[], 0.01, 0.02, 0.1);
         assert!((f.exact(Point2::new(0.3, 0.2)) - f.floor() as f64).abs() < 1e-6);
+    }
+
+    /// A wall ring 40 m out, as a laser's far returns: only the tiles
+    /// near it are stored, under a sixth of the box it spans, and the
+    /// cells far from it read as the floor.
+    #[test]
+    fn only_tiles_near_points_are_stored() {
+        let ring: Vec<Point2> = (0..25_000)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / 25_000.0;
+                Point2::new(40.01 * a.cos(), 40.01 * a.sin())
+            })
+            .collect();
+        let mut f = LikelihoodField::from_points(&[], 0.05, 0.05, 0.2);
+        for chunk in ring.chunks(700) {
+            f.insert(chunk);
+        }
+        f.levels();
+        let span = (2.0 * 40.0 / 0.05) as usize;
+        let stored = f.level_cells();
+        assert!(
+            stored * 6 < span * span,
+            "{stored} cells stored of {}",
+            span * span
+        );
+        assert_eq!(f.cell(0, 0), f.floor());
+        assert_eq!(f.cell(400, 400), f.floor());
+        // On the wall, the exact value at the cell's centre.
+        let on = f.exact(Point2::new(40.025, 0.025));
+        assert!(on > -0.2 && (f.cell(800, 0) as f64 - on).abs() < 1e-6, "{on}");
+        assert!(f.covers(Point2::new(40.0, 0.0)) && !f.covers(Point2::new(39.8, 0.0)));
+    }
+
+    /// The four corners' sums in one pass are the four sums taken alone,
+    /// to the bit, across tile borders and beyond the stored tiles; the
+    /// pooled bounds hold on a field with seen floor too.
+    #[test]
+    fn corner_sums_are_the_single_sums() {
+        use pirouette_geom::Pose2;
+        use pirouette_grid::{GridConfig, OccupancyGrid, FREE_THRESH};
+        use pirouette_profile::Rop;
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut rop = Rop::covering(-1.5, 1.5, 0.5f64.to_radians(), 0.9).unwrap();
+        rop.range_m.iter_mut().for_each(|r| *r = 0.7);
+        let mut grid = OccupancyGrid::new(GridConfig::default()).unwrap();
+        for _ in 0..5 {
+            grid.insert_profile(&Pose2::IDENTITY, &rop, 0.1);
+        }
+        let pts: Vec<Point2> = (0..400)
+            .map(|_| Point2::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)))
+            .collect();
+        let f = LikelihoodField::from_map(&pts, &grid, FREE_THRESH, 0.015, 0.2, 0.02);
+        let levels = f.levels();
+        let mut free_blocks = 0;
+        for _ in 0..300 {
+            let cells: Vec<(i64, i64)> = (0..rng.random_range(1..200))
+                .map(|_| (rng.random_range(-140..140i64), rng.random_range(-140..140i64)))
+                .collect();
+            let (a, b) = (rng.random_range(-40..40i64), rng.random_range(-40..40i64));
+            let h = rng.random_range(0..=POOLED_LEVELS - 1);
+            let d = 1i64 << h.max(1);
+            let corners = [(a, b), (a + d, b), (a, b + d), (a + d, b + d)];
+            let four = f.cells_sum4(&cells, a, b, d);
+            for (k, &(x, y)) in corners.iter().enumerate() {
+                assert_eq!(four[k].to_bits(), f.cells_sum(&cells, x, y).to_bits());
+            }
+            if h >= 1 {
+                let four = f.pooled_sum4(levels, h, &cells, a, b, d);
+                for (k, &(x, y)) in corners.iter().enumerate() {
+                    assert_eq!(four[k].to_bits(), f.pooled_sum(levels, h, &cells, x, y).to_bits());
+                }
+            }
+        }
+        // Blocks over seen floor, its edge and the points bound their cells.
+        let step = (f.step + 1e-6) as f32;
+        for _ in 0..3000 {
+            let h = rng.random_range(1..=POOLED_LEVELS);
+            let (i, j) = (rng.random_range(-140..140i64), rng.random_range(-140..140i64));
+            let side = 1i64 << h;
+            let most = (j..j + side)
+                .flat_map(|y| (i..i + side).map(move |x| (x, y)))
+                .map(|(x, y)| f.cell(x, y))
+                .fold(f32::NEG_INFINITY, f32::max);
+            free_blocks += usize::from(most < f.floor());
+            let bound = f.pooled(h, i, j);
+            assert!(
+                bound >= most && bound <= most + step,
+                "level {h} at ({i}, {j}): {bound} for {most}"
+            );
+        }
+        assert!(free_blocks > 100, "{free_blocks} blocks wholly on seen floor");
     }
 }
