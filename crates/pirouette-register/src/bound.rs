@@ -37,20 +37,11 @@ pub(crate) struct Pyramid<'f> {
 }
 
 impl Pyramid<'_> {
-    /// The sum over `cells`, each moved by `(a, b)`, of level `h`'s bound
-    /// of the block of side `2ʰ` from there, in the order given (the
-    /// exhaustive search's order: its rounding, at `h = 0`).
-    #[inline]
-    fn sum(&self, h: usize, cells: &[(i64, i64)], a: i64, b: i64) -> f32 {
-        if h == 0 {
-            self.field.cells_sum(cells, a, b)
-        } else {
-            self.field.pooled_sum(self.levels, h, cells, a, b)
-        }
-    }
-
-    /// [`Pyramid::sum`] at `(a, b)`, `(a + d, b)`, `(a, b + d)` and
-    /// `(a + d, b + d)`, in one pass over the cells.
+    /// The sums over `cells`, each moved by `(a, b)`, `(a + d, b)`,
+    /// `(a, b + d)` and `(a + d, b + d)`, of level `h`'s bound of the
+    /// block of side `2ʰ` from there, in one pass over the cells; at
+    /// `h = 0`, of the cells' values in the order given (the exhaustive
+    /// search's order: its rounding).
     #[inline]
     fn sum4(&self, h: usize, cells: &[(i64, i64)], a: i64, b: i64, d: i64) -> [f32; 4] {
         if h == 0 {
@@ -239,20 +230,27 @@ pub(crate) fn search_rotation(
     let mut kept = Vec::new();
     // The top blocks tile the lattice; the most promising is searched
     // first.
-    let step = 1usize << top;
-    let mut stack: Vec<(i64, i64, usize, f64)> = (-block.ny..=block.ny)
-        .step_by(step)
-        .flat_map(|b0| (-block.nx..=block.nx).step_by(step).map(move |a0| (a0, b0)))
-        .filter(|&(a0, b0)| !left_out(a0, b0, top))
-        .map(|(a0, b0)| {
-            (
-                a0,
-                b0,
-                top,
-                bound_of(pyramid.sum(top, cells, a0, b0), a0, b0, top),
-            )
-        })
-        .collect();
+    let step = 1i64 << top;
+    let mut stack: Vec<(i64, i64, usize, f64)> = Vec::new();
+    // Two rows of top blocks at a time, two by two in one pass over the
+    // cells; pushed row by row.
+    let mut rows: [Vec<(i64, f32)>; 2] = [Vec::new(), Vec::new()];
+    for b0 in (-block.ny..=block.ny).step_by(2 * step as usize) {
+        rows.iter_mut().for_each(Vec::clear);
+        for a0 in (-block.nx..=block.nx).step_by(2 * step as usize) {
+            let sums = pyramid.sum4(top, cells, a0, b0, step);
+            rows[0].extend([(a0, sums[0]), (a0 + step, sums[1])]);
+            rows[1].extend([(a0, sums[2]), (a0 + step, sums[3])]);
+        }
+        for (r, row) in rows.iter().enumerate() {
+            let b = b0 + r as i64 * step;
+            for &(a, sum) in row {
+                if a <= block.nx && b <= block.ny && !left_out(a, b, top) {
+                    stack.push((a, b, top, bound_of(sum, a, b, top)));
+                }
+            }
+        }
+    }
     let mut scored = stack.len();
     stack.sort_by(|x, y| x.3.total_cmp(&y.3));
     let mut children = Vec::with_capacity(4);

@@ -30,13 +30,13 @@ use std::sync::OnceLock;
 /// time).
 ///
 /// # Memory
-/// The lattice is kept in tiles of 32 × 32 cells, and only
-/// tiles within reach of an obstacle point or on seen floor (and the
-/// tiles just before them, whose pooled blocks reach into them) are
-/// stored: about 9 bytes per cell of those tiles (value, squared distance
-/// and seen floor), four more once a branch and bound asks for the pooled levels, and 16
-/// bytes per point. A laser's submap out to 40 m stores about a
-/// fifteenth of the box its points span.
+/// The lattice is kept in tiles of 32 × 32 cells, and only tiles within
+/// reach of an obstacle point or on seen floor (and the tiles just before
+/// them, whose pooled blocks reach into them) are stored: about 5 bytes
+/// per cell of those tiles (value and seen floor), four more (the squared
+/// distances) in a field that grows, four more once a branch and bound
+/// asks for the pooled levels; and 16 bytes per point. A laser's submap
+/// out to 40 m stores about a fifteenth of the box its points span.
 #[derive(Debug, Clone)]
 pub struct LikelihoodField {
     /// The obstacle points, bucketed for nearest-point queries.
@@ -53,7 +53,9 @@ pub struct LikelihoodField {
     /// it; tile 0 is every tile not stored: all floor.
     values: Vec<f32>,
     /// The squared distance from each stored cell's centre to the nearest
-    /// point within `reach` cells (infinite beyond), as `values`.
+    /// point within `reach` cells (infinite beyond), as `values`; kept
+    /// once the field has grown (empty in a field made at once, which
+    /// needs it no more).
     d2: Vec<f32>,
     /// The stored tiles' cells the map has seen free, as `values` (empty:
     /// none).
@@ -360,8 +362,9 @@ impl LikelihoodField {
         if let Some((grid, threshold)) = free_space {
             field.mark_free(grid, threshold, region);
         }
+        let mut scratch = Vec::new();
         for p in &points {
-            field.stamp(p, region, false);
+            field.stamp(p, region, false, &mut scratch);
         }
         // Each cell's value once, from its nearest point.
         for k in 0..field.values.len() {
@@ -371,6 +374,8 @@ impl LikelihoodField {
             }
         }
         field.points.add(&points);
+        // Kept only by a field that grows (see `insert`).
+        field.d2 = Vec::new();
         field
     }
 
@@ -460,7 +465,9 @@ impl LikelihoodField {
                     (tj - self.table.min.1) as usize * self.table.width + (ti - self.table.min.0) as usize;
                 self.table.starts[k] = self.values.len();
                 self.values.resize(self.values.len() + TILE_CELLS, self.floor);
-                self.d2.resize(self.d2.len() + TILE_CELLS, f32::INFINITY);
+                if !self.d2.is_empty() {
+                    self.d2.resize(self.d2.len() + TILE_CELLS, f32::INFINITY);
+                }
                 if !self.free.is_empty() {
                     self.free.resize(self.free.len() + TILE_CELLS, false);
                 }
@@ -483,8 +490,17 @@ impl LikelihoodField {
             .copied()
             .filter(|p| p.x.is_finite() && p.y.is_finite())
             .collect();
+        let mut scratch = Vec::new();
+        if self.d2.len() != self.values.len() {
+            // A field made at once keeps no distances: found again.
+            self.d2 = vec![f32::INFINITY; self.values.len()];
+            let held: Vec<Point2> = self.points.all().collect();
+            for p in &held {
+                self.stamp(p, None, false, &mut scratch);
+            }
+        }
         for p in &points {
-            let rect = self.stamp(p, None, true);
+            let rect = self.stamp(p, None, true, &mut scratch);
             self.pool_rect(rect);
         }
         self.points.add(&points);
@@ -494,7 +510,8 @@ impl LikelihoodField {
     /// the cell holding `p` (a point added there would add little).
     pub fn covers(&self, p: Point2) -> bool {
         let (i, j) = self.cell_of(&p);
-        (self.d2[self.table.locate(i, j)] as f64) <= 0.25 * self.resolution_m * self.resolution_m
+        (self.d2.get(self.table.locate(i, j)))
+            .is_some_and(|&d| (d as f64) <= 0.25 * self.resolution_m * self.resolution_m)
     }
 
     /// The cell holding `p`.
@@ -507,9 +524,16 @@ impl LikelihoodField {
 
     /// Lowers the squared distances within `p`'s reach (cut to `region`,
     /// where given) to `p`'s, storing the tiles that needs, and with
-    /// `values` raises the values where they fell; the cells touched,
-    /// `None` where none.
-    fn stamp(&mut self, p: &Point2, region: Option<Rect>, values: bool) -> Option<Rect> {
+    /// `values` raises the values where they fell (`scratch`: room for the
+    /// squared offsets of its columns); the cells touched, `None` where
+    /// none.
+    fn stamp(
+        &mut self,
+        p: &Point2,
+        region: Option<Rect>,
+        values: bool,
+        scratch: &mut Vec<f64>,
+    ) -> Option<Rect> {
         let (i, j) = self.cell_of(p);
         let (mut lo, mut hi) = ((i - self.reach, j - self.reach), (i + self.reach, j + self.reach));
         if let Some((a, b)) = region {
@@ -521,6 +545,12 @@ impl LikelihoodField {
         // The blocks that reach the cells touched start in these.
         self.store(((lo.0 - PAD, lo.1 - PAD), hi));
         let res = self.resolution_m;
+        // The squared offsets across the columns, shared by every row.
+        scratch.clear();
+        scratch.extend((lo.0..=hi.0).map(|x| {
+            let ddx = (x as f64 + 0.5) * res - p.x;
+            ddx * ddx
+        }));
         for y in lo.1..=hi.1 {
             let ddy = (y as f64 + 0.5) * res - p.y;
             let dy2 = ddy * ddy;
@@ -528,17 +558,22 @@ impl LikelihoodField {
             let mut x = lo.0;
             while x <= hi.0 {
                 let end = (x | (TILE - 1)).min(hi.0);
+                let n = (end - x + 1) as usize;
                 let start = self.table.locate(x, y);
-                for (n, xx) in (x..=end).enumerate() {
-                    let ddx = (xx as f64 + 0.5) * res - p.x;
-                    let d = (ddx * ddx + dy2) as f32;
-                    let k = start + n;
-                    if d < self.d2[k] {
-                        self.d2[k] = d;
-                        if values {
+                let columns = &scratch[(x - lo.0) as usize..][..n];
+                if values {
+                    for (c, &dx2) in columns.iter().enumerate() {
+                        let (k, d) = (start + c, (dx2 + dy2) as f32);
+                        if d < self.d2[k] {
+                            self.d2[k] = d;
                             let free = self.free.get(k).copied().unwrap_or(false);
                             self.values[k] = self.value_of(d, free);
                         }
+                    }
+                } else {
+                    let row = &mut self.d2[start..start + n];
+                    for (d, &dx2) in row.iter_mut().zip(columns) {
+                        *d = d.min((dx2 + dy2) as f32);
                     }
                 }
                 x = end + 1;
@@ -683,7 +718,7 @@ impl LikelihoodField {
     /// block of side `2ʰ` (`h ≥ 1`): level `h`'s bytes summed as integers,
     /// turned into a value once, plus the most that summing `n` values of
     /// magnitude at most `|lowest|` in `f32` can add by rounding.
-    #[inline]
+    #[cfg(test)]
     pub(crate) fn pooled_sum(
         &self,
         levels: &[Vec<u8>],
@@ -1058,6 +1093,11 @@ impl Buckets {
         (y_lo..=y_hi).flat_map(move |y| {
             (x_lo..=x_hi).flat_map(move |x| self.cells[y as usize * self.width + x as usize].iter())
         })
+    }
+
+    /// Every point held.
+    fn all(&self) -> impl Iterator<Item = Point2> + '_ {
+        self.cells.iter().flatten().map(|c| Point2::new(c[0], c[1]))
     }
 
     /// The nearest point within the cutoff of `p` and its squared distance.
