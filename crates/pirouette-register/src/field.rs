@@ -1301,6 +1301,36 @@ mod tests {
         assert_eq!(checked, 4000);
     }
 
+    /// Checks that the pooled level of `n` random blocks, starting within
+    /// `xs × ys` (cells), is their largest value rounded up by less than a
+    /// step; how many of them lie wholly below the floor (on seen floor).
+    fn check_blocks(
+        field: &LikelihoodField,
+        rng: &mut impl rand::Rng,
+        n: usize,
+        xs: (i64, i64),
+        ys: (i64, i64),
+    ) -> usize {
+        let step = (field.step + 1e-6) as f32;
+        let mut below_floor = 0;
+        for _ in 0..n {
+            let h = rng.random_range(1..=POOLED_LEVELS);
+            let (i, j) = (rng.random_range(xs.0..xs.1), rng.random_range(ys.0..ys.1));
+            let side = 1i64 << h;
+            let most = (j..j + side)
+                .flat_map(|y| (i..i + side).map(move |x| (x, y)))
+                .map(|(x, y)| field.cell(x, y))
+                .fold(f32::NEG_INFINITY, f32::max);
+            below_floor += usize::from(most < field.floor());
+            let bound = field.pooled(h, i, j);
+            assert!(
+                bound >= most && bound <= most + step,
+                "level {h} at ({i}, {j}): {bound} for {most}"
+            );
+        }
+        below_floor
+    }
+
     /// Points inserted a batch at a time give the lattice of the field
     /// made of them all at once, to the bit; the pooled levels give every
     /// block's largest value, rounded up by less than their quantum.
@@ -1344,21 +1374,7 @@ mod tests {
             assert_eq!(grown.exact(q).to_bits(), whole.exact(q).to_bits(), "{q:?}");
         }
         for field in [&grown, &whole] {
-            let step = (field.step + 1e-6) as f32;
-            for _ in 0..2000 {
-                let h = rng.random_range(1..=POOLED_LEVELS);
-                let (i, j) = (rng.random_range(-300..300i64), rng.random_range(-300..200i64));
-                let side = 1i64 << h;
-                let most = (j..j + side)
-                    .flat_map(|y| (i..i + side).map(move |x| (x, y)))
-                    .map(|(x, y)| field.cell(x, y))
-                    .fold(f32::NEG_INFINITY, f32::max);
-                let bound = field.pooled(h, i, j);
-                assert!(
-                    bound >= most && bound <= most + step,
-                    "level {h} at ({i}, {j}): {bound} for {most}"
-                );
-            }
+            check_blocks(field, &mut rng, 2000, (-300, 300), (-300, 200));
             // A level's sum over many cells bounds their f32 sum at every
             // offset within the block, and exceeds the sum of each cell's
             // own largest value in the block by little more than a step each.
@@ -1449,7 +1465,6 @@ mod tests {
             .collect();
         let f = LikelihoodField::from_map(&pts, &grid, FREE_THRESH, 0.015, 0.2, 0.02);
         let levels = f.levels();
-        let mut free_blocks = 0;
         for _ in 0..300 {
             let cells: Vec<(i64, i64)> = (0..rng.random_range(1..200))
                 .map(|_| (rng.random_range(-140..140i64), rng.random_range(-140..140i64)))
@@ -1470,22 +1485,7 @@ mod tests {
             }
         }
         // Blocks over seen floor, its edge and the points bound their cells.
-        let step = (f.step + 1e-6) as f32;
-        for _ in 0..3000 {
-            let h = rng.random_range(1..=POOLED_LEVELS);
-            let (i, j) = (rng.random_range(-140..140i64), rng.random_range(-140..140i64));
-            let side = 1i64 << h;
-            let most = (j..j + side)
-                .flat_map(|y| (i..i + side).map(move |x| (x, y)))
-                .map(|(x, y)| f.cell(x, y))
-                .fold(f32::NEG_INFINITY, f32::max);
-            free_blocks += usize::from(most < f.floor());
-            let bound = f.pooled(h, i, j);
-            assert!(
-                bound >= most && bound <= most + step,
-                "level {h} at ({i}, {j}): {bound} for {most}"
-            );
-        }
+        let free_blocks = check_blocks(&f, &mut rng, 3000, (-140, 140), (-140, 140));
         assert!(free_blocks > 100, "{free_blocks} blocks wholly on seen floor");
     }
 }
