@@ -141,8 +141,9 @@ impl TableView<'_> {
 }
 
 /// Visits, for each of `cells` moved by `(a, b)`, where the cell and
-/// the three `d` (`< TILE`) to its right, above and diagonally from it are
-/// stored: one lookup of the table where all four lie in one tile.
+/// the three `d > 0` to its right, above and diagonally from it are
+/// stored: one lookup of the table where all four lie in one tile, four
+/// where they do not (always, for `d ≥ TILE`).
 #[inline(always)]
 fn corners(
     table: TableView,
@@ -770,7 +771,7 @@ impl LikelihoodField {
     }
 
     /// [`LikelihoodField::cells_sum`] at `(a, b)`, `(a + d, b)`,
-    /// `(a, b + d)` and `(a + d, b + d)` (`0 < d < TILE`), each summed as
+    /// `(a, b + d)` and `(a + d, b + d)` (`d > 0`), each summed as
     /// it would be alone, in one pass.
     #[inline]
     pub(crate) fn cells_sum4(&self, cells: &[(i64, i64)], a: i64, b: i64, d: i64) -> [f32; 4] {
@@ -785,7 +786,7 @@ impl LikelihoodField {
     }
 
     /// [`LikelihoodField::pooled_sum`] at `(a, b)`, `(a + d, b)`,
-    /// `(a, b + d)` and `(a + d, b + d)` (`0 < d < TILE`), in one pass.
+    /// `(a, b + d)` and `(a + d, b + d)` (`d > 0`), in one pass.
     #[inline]
     pub(crate) fn pooled_sum4(
         &self,
