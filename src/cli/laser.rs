@@ -4,7 +4,7 @@ use anyhow::{bail, Result};
 use pirouette::eval::laser::{evaluate_laser, LaserScores};
 use pirouette::eval::relations::{score_relations, MATCH_WINDOW_S};
 use pirouette::geom::Pose2;
-use pirouette::grid::{OccupancyGrid, RosMap};
+use pirouette::grid::RosMap;
 use pirouette::io::{
     map_names, read_relations, read_tum, write_map_files, write_pose_graph, write_tum, OdometrySource,
     PoseRecord,
@@ -29,22 +29,25 @@ fn peak_memory_bytes() -> Option<u64> {
 /// Writes a mapped laser log into `out` and sums it up on stdout: the
 /// poses first, so that whatever befell the grid the registration's work
 /// is kept; `start` is when the run began.
-pub fn write_and_report(
-    mapped: &LaserOutput,
-    config: &LaserConfig,
-    out: &Path,
-    start: Instant,
-) -> Result<()> {
-    let (log, r) = (&mapped.log, &mapped.registered);
+pub fn write_and_report(mapped: LaserOutput, config: &LaserConfig, out: &Path, start: Instant) -> Result<()> {
+    let LaserOutput {
+        log,
+        registered,
+        grid,
+        coarsened,
+    } = mapped;
+    let (log, r) = (log.as_path(), &registered);
     write_poses(log, r, out)?;
-    let grid = match &mapped.grid {
-        Ok(grid) => grid,
+    // The grid gives way to its ROS map before the picture is drawn: the
+    // two are never held beside the picture at once.
+    let ros = match grid {
+        Ok(grid) => RosMap::from_grid(&grid),
         Err(e) => bail!("{e}; the poses are written to {}, the map is not", out.display()),
     };
-    if let Some(w) = &mapped.coarsened {
+    if let Some(w) = &coarsened {
         eprintln!("warning: {}: {w}", log.display());
     }
-    write_map(log, r, grid, out)?;
+    write_map(log, r, &ros, out)?;
     let seconds = start.elapsed().as_secs_f64();
     let scans = &r.scans;
     let unregistered = scans.iter().filter(|s| !s.registered).count();
@@ -131,7 +134,6 @@ pub fn write_and_report(
     if none > 0 {
         outln!("{none} steps had no odometry in the log and were matched under each motion the robot may have made")?;
     }
-    let ros = RosMap::from_grid(grid);
     outln!(
         "map {} × {} cells of {} cm written to {} (look at {})",
         ros.width,
@@ -167,8 +169,7 @@ fn write_poses(log: &Path, r: &RegisteredLog, out: &Path) -> Result<()> {
 
 /// Writes the map of a registered log into its folder: the ROS map and
 /// its picture.
-fn write_map(log: &Path, r: &RegisteredLog, grid: &OccupancyGrid, out: &Path) -> Result<()> {
-    let ros = RosMap::from_grid(grid);
+fn write_map(log: &Path, r: &RegisteredLog, ros: &RosMap, out: &Path) -> Result<()> {
     let poses: Vec<Pose2> = r.scans.iter().map(|s| s.pose).collect();
     let name = log
         .file_name()
@@ -178,10 +179,10 @@ fn write_map(log: &Path, r: &RegisteredLog, grid: &OccupancyGrid, out: &Path) ->
         poses.len(),
         ros.resolution_m * 100.0
     );
-    let picture = pirouette::plot::map_figure(&ros, &poses, &[], &title);
+    let picture = pirouette::plot::map_figure(ros, &poses, &[], &title);
     let mut png = Vec::new();
     picture.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    write_map_files(out, &ros, &png)?;
+    write_map_files(out, ros, &png)?;
     Ok(())
 }
 

@@ -328,7 +328,7 @@ pub fn map(a: MapArgs) -> Result<()> {
     let output = pirouette::slam::map(input, &config, &|stage| bars.report(stage));
     bars.finish();
     match output? {
-        MapOutput::Laser(out) => super::laser::write_and_report(&out, &config.laser, &a.out, start),
+        MapOutput::Laser(out) => super::laser::write_and_report(*out, &config.laser, &a.out, start),
         MapOutput::Camera { dataset, mapped } => {
             write_map(&dataset, &mapped, &a.out)?;
             report_camera(&mapped, &a.out)

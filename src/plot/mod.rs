@@ -332,8 +332,10 @@ pub enum Swatch {
 }
 
 /// `img` with a title above it and a legend below: each entry a swatch
-/// and its words, laid out in rows.
-pub fn titled(img: &RgbImage, title: &str, legend: &[(Swatch, &str)]) -> RgbImage {
+/// and its words, laid out in rows. Where the picture is at least as
+/// wide as the figure, its own buffer grows to hold the title and legend,
+/// so a large map's picture is never held twice.
+pub fn titled(img: RgbImage, title: &str, legend: &[(Swatch, &str)]) -> RgbImage {
     // Half-size text where the title would not fit a small picture, and
     // the title wrapped at spaces where even that is too wide.
     let scale = if text_width(title, LABEL_SCALE) + 16 > img.width() {
@@ -379,14 +381,14 @@ pub fn titled(img: &RgbImage, title: &str, legend: &[(Swatch, &str)]) -> RgbImag
     } else {
         rows.len() as u32 * row_h + pad
     };
-    let mut out = RgbImage::from_pixel(width, title_h + img.height() + legend_h, BACKGROUND);
+    let mut out = around(img, width, title_h, legend_h);
     for (k, line) in lines.iter().enumerate() {
         let y = pad + k as u32 * (th + pad);
         draw_text(&mut out, pad as i32, y as i32, line, Rgb([20, 20, 20]), scale);
     }
-    image::imageops::overlay(&mut out, img, 0, i64::from(title_h));
+    let img_h = out.height() - title_h - legend_h;
     for (r, row) in rows.iter().enumerate() {
-        let y = title_h + img.height() + pad / 2 + r as u32 * row_h;
+        let y = title_h + img_h + pad / 2 + r as u32 * row_h;
         for &(x, mark, words) in row {
             let (cx, cy) = ((x + swatch / 2) as f32, (y + swatch / 2) as f32);
             match mark {
@@ -414,6 +416,31 @@ pub fn titled(img: &RgbImage, title: &str, legend: &[(Swatch, &str)]) -> RgbImag
     out
 }
 
+/// `img` on a canvas `width` wide with `above` rows of background over
+/// it and `below` rows under it. A picture already `width` wide keeps its
+/// buffer: it grows, and the picture's rows move down in place.
+fn around(img: RgbImage, width: u32, above: u32, below: u32) -> RgbImage {
+    let (w, h) = img.dimensions();
+    let height = above + h + below;
+    if w != width {
+        let mut out = RgbImage::from_pixel(width, height, BACKGROUND);
+        image::imageops::overlay(&mut out, &img, 0, i64::from(above));
+        return out;
+    }
+    let row = 3 * w as usize;
+    let mut buf = img.into_raw();
+    let picture = buf.len();
+    let shift = above as usize * row;
+    buf.reserve_exact((above + below) as usize * row);
+    buf.resize(picture + (above + below) as usize * row, 0);
+    buf.copy_within(0..picture, shift);
+    let (top, rest) = buf.split_at_mut(shift);
+    for pixel in top.chunks_exact_mut(3).chain(rest[picture..].chunks_exact_mut(3)) {
+        pixel.copy_from_slice(&BACKGROUND.0);
+    }
+    RgbImage::from_raw(width, height, buf).expect("the buffer holds width × height pixels")
+}
+
 /// [`map_picture`] with a title and its legend: what each colour and
 /// mark means, and how the map frame's axes lie (+x right, +y up).
 /// Without sweeps (a laser log's map), the sweep mark is left out of the
@@ -430,7 +457,7 @@ pub fn map_figure(map: &RosMap, frames: &[Pose2], sweeps: &[Pose2], title: &str)
     }
     legend.push((Swatch::Dot(TRUTH), "first frame: map origin, facing +x"));
     legend.push((Swatch::Line(LABEL), "map axes: +x right, +y up"));
-    titled(&map_picture(map, frames, sweeps), title, &legend)
+    titled(map_picture(map, frames, sweeps), title, &legend)
 }
 
 /// [`rop_diagram`] with a title naming the frame and its legend.
@@ -442,7 +469,7 @@ pub fn rop_figure(rop: &Rop, truth: Option<&Rop>, frame: &str) -> RgbImage {
     legend.push((Swatch::Line(LIMIT), "soft range limit"));
     legend.push((Swatch::Line(GRID), "grid: 10 cm, 10 deg; bearing + = left"));
     titled(
-        &rop_diagram(rop, truth),
+        rop_diagram(rop, truth),
         &format!("Radial obstacle profile of {frame}"),
         &legend,
     )
@@ -451,7 +478,7 @@ pub fn rop_figure(rop: &Rop, truth: Option<&Rop>, frame: &str) -> RgbImage {
 /// [`sweep_diagram`] with a title naming the sweep and its legend.
 pub fn sweep_figure(sweep: &Rop, name: &str) -> RgbImage {
     titled(
-        &sweep_diagram(sweep),
+        sweep_diagram(sweep),
         &format!("360 deg radial sweep {name} (forward up)"),
         &[
             (Swatch::Fill(Rgb([225, 225, 225])), "floor seen"),
@@ -467,7 +494,7 @@ pub fn sweep_figure(sweep: &Rop, name: &str) -> RgbImage {
 /// [`floor_view`] with a title naming the frame and its legend.
 pub fn floor_figure(camera: &impl CameraModel, image: &RgbImage, rop: &Rop, frame: &str) -> RgbImage {
     titled(
-        &floor_view(camera, image, rop),
+        floor_view(camera, image, rop),
         &format!("Floor seen from above, {frame} (robot at the bottom, forward up)"),
         &[
             (Swatch::Dot(MEASURED), "obstacle found"),
@@ -480,7 +507,7 @@ pub fn floor_figure(camera: &impl CameraModel, image: &RgbImage, rop: &Rop, fram
 /// [`boundary_overlay`] with a title naming the frame and its legend.
 pub fn boundary_figure(image: &RgbImage, boundaries: &[ColumnBoundary], frame: &str) -> RgbImage {
     titled(
-        &boundary_overlay(image, boundaries),
+        boundary_overlay(image, boundaries),
         &format!("Floor boundary in {frame}"),
         &[
             (Swatch::Line(MEASURED), "obstacle's base"),
@@ -562,7 +589,7 @@ pub fn calibration_figure(
     frame: &str,
 ) -> RgbImage {
     titled(
-        &calibration_overlay(camera, image, reach_m),
+        calibration_overlay(camera, image, reach_m),
         &format!("Calibration check, {frame}: the floor grid the camera model projects"),
         &[
             (Swatch::Line(OVERLAY_GRID), "10 cm grid"),
@@ -647,7 +674,7 @@ pub fn pr_figure(curve: &[(f64, f64, f64)], name: &str) -> RgbImage {
         }
     }
     titled(
-        &img,
+        img,
         &format!("Place queries of {name}: precision and recall over the score threshold"),
         &[
             (Swatch::Dot(MEASURED), "one score threshold"),

@@ -12,7 +12,7 @@ fn a_titled_picture_keeps_the_picture_and_adds_title_and_legend() {
         (Swatch::Dot(MEASURED), "red dots"),
         (Swatch::Line(TRUTH), "green line"),
     ];
-    let out = titled(&inner, "A title", &legend);
+    let out = titled(inner.clone(), "A title", &legend);
     assert_eq!(out.width(), 300);
     assert!(out.height() > 100 + 2 * text_height(LABEL_SCALE));
     // The picture sits right under the title bar, unchanged.
@@ -24,12 +24,28 @@ fn a_titled_picture_keeps_the_picture_and_adds_title_and_legend() {
     assert!((0..bar).any(|y| (0..300).any(|x| *out.get_pixel(x, y) != BACKGROUND)));
     assert!((bar + 100..out.height()).any(|y| (0..300).any(|x| *out.get_pixel(x, y) == MEASURED)));
     let long = titled(
-        &inner,
+        inner.clone(),
         "A title far too long for a picture three hundred pixels wide",
         &[],
     );
     assert_eq!(long.width(), 300, "wrapped, not widened");
     assert!(long.height() >= 100 + 2 * text_height(1), "two lines at least");
+}
+
+/// A picture as wide as its figure grows in place; the figure is the
+/// one a fresh canvas with the picture laid over it gives, pixel for
+/// pixel, and a narrower picture is laid on a wider canvas at the left.
+#[test]
+fn a_picture_grown_in_place_equals_one_laid_on_a_canvas() {
+    let picture = RgbImage::from_fn(37, 11, |x, y| Rgb([x as u8 * 7, y as u8 * 23, (x * y) as u8]));
+    let laid = |width: u32| {
+        let mut out = RgbImage::from_pixel(width, 5 + 11 + 3, BACKGROUND);
+        image::imageops::overlay(&mut out, &picture, 0, 5);
+        out
+    };
+    assert_eq!(around(picture.clone(), 37, 5, 3), laid(37));
+    assert_eq!(around(picture.clone(), 50, 5, 3), laid(50));
+    assert_eq!(around(picture.clone(), 37, 0, 0), picture);
 }
 
 /// The overlay draws where the model projects the floor grid: a point
