@@ -18,7 +18,7 @@
 //! gives it, and a bound sums larger values in the same order, which
 //! rounding cannot invert.
 
-use crate::field::LikelihoodField;
+use crate::field::{LikelihoodField, Window};
 use pirouette_geom::wrap_angle;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
@@ -34,6 +34,10 @@ pub(crate) struct Pyramid<'f> {
     pub levels: &'f [Vec<u8>],
     /// The coarsest level a search starts from.
     pub top: usize,
+    /// The field and its levels `1..=top` copied out of their tiles over
+    /// the cells the search reads, where it reads each many times; a
+    /// rotation whose reads it does not hold reads the tiles.
+    pub window: Option<Window>,
 }
 
 impl Pyramid<'_> {
@@ -41,13 +45,23 @@ impl Pyramid<'_> {
     /// `(a, b + d)` and `(a + d, b + d)`, of level `h`'s bound of the
     /// block of side `2ʰ` from there, in one pass over the cells; at
     /// `h = 0`, of the cells' values in the order given (the exhaustive
-    /// search's order: its rounding).
+    /// search's order: its rounding). From `window` where given (which
+    /// holds every cell read).
     #[inline]
-    fn sum4(&self, h: usize, cells: &[(i64, i64)], a: i64, b: i64, d: i64) -> [f32; 4] {
-        if h == 0 {
-            self.field.cells_sum4(cells, a, b, d)
-        } else {
-            self.field.pooled_sum4(self.levels, h, cells, a, b, d)
+    fn sum4(
+        &self,
+        window: Option<&Window>,
+        h: usize,
+        cells: &[(i64, i64)],
+        a: i64,
+        b: i64,
+        d: i64,
+    ) -> [f32; 4] {
+        match (window, h) {
+            (Some(w), 0) => w.cells_sum4(cells, a, b, d),
+            (Some(w), _) => w.pooled_sum4(self.field, h, cells, a, b, d),
+            (None, 0) => self.field.cells_sum4(cells, a, b, d),
+            (None, _) => self.field.pooled_sum4(self.levels, h, cells, a, b, d),
         }
     }
 }
@@ -210,6 +224,16 @@ pub(crate) fn search_rotation(
     nodes: &AtomicUsize,
 ) -> Vec<Kept> {
     let top = pyramid.top;
+    let step = 1i64 << top;
+    // Block origins run over `[-nx, nx + step]` (the top blocks, two by
+    // two) and a block's children lie within it.
+    let window = (pyramid.window.as_ref()).filter(|w| {
+        w.holds(
+            cells,
+            (-block.nx, block.nx + 2 * step),
+            (-block.ny, block.ny + 2 * step),
+        )
+    });
     // The bound of the block of side 2ʰ from `(a0, b0)`, clipped to the
     // lattice; at h = 0 the pose's exact score.
     let bound_of = |sum: f32, a0: i64, b0: i64, h: usize| -> f64 {
@@ -230,7 +254,6 @@ pub(crate) fn search_rotation(
     let mut kept = Vec::new();
     // The top blocks tile the lattice; the most promising is searched
     // first.
-    let step = 1i64 << top;
     let mut stack: Vec<(i64, i64, usize, f64)> = Vec::new();
     // Two rows of top blocks at a time, two by two in one pass over the
     // cells; pushed row by row.
@@ -238,7 +261,7 @@ pub(crate) fn search_rotation(
     for b0 in (-block.ny..=block.ny).step_by(2 * step as usize) {
         rows.iter_mut().for_each(Vec::clear);
         for a0 in (-block.nx..=block.nx).step_by(2 * step as usize) {
-            let sums = pyramid.sum4(top, cells, a0, b0, step);
+            let sums = pyramid.sum4(window, top, cells, a0, b0, step);
             rows[0].extend([(a0, sums[0]), (a0 + step, sums[1])]);
             rows[1].extend([(a0, sums[2]), (a0 + step, sums[3])]);
         }
@@ -270,7 +293,7 @@ pub(crate) fn search_rotation(
         let half = 1i64 << (h - 1);
         children.clear();
         // The four children's sums in one pass over the cells.
-        let sums = pyramid.sum4(h - 1, cells, a0, b0, half);
+        let sums = pyramid.sum4(window, h - 1, cells, a0, b0, half);
         for ((da, db), sum) in [(0, 0), (half, 0), (0, half), (half, half)].into_iter().zip(sums) {
             let (a, b) = (a0 + da, b0 + db);
             if a <= block.nx && b <= block.ny && !left_out(a, b, h - 1) {

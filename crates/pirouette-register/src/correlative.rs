@@ -557,6 +557,8 @@ struct Lattice<'p> {
     theta_step: f64,
     nx: i64,
     ny: i64,
+    /// The farthest point's distance from the robot, metres.
+    far_m: f64,
 }
 
 impl<'p> Lattice<'p> {
@@ -579,6 +581,7 @@ impl<'p> Lattice<'p> {
             theta_step,
             nx: (half_x / res).ceil() as i64,
             ny: (half_y / res).ceil() as i64,
+            far_m: far,
         };
         (lattice, (half_t / theta_step).ceil() as i64)
     }
@@ -735,7 +738,7 @@ fn bounded<'f>(
 ) -> Option<Searched<'f>> {
     let best = SharedBest::new();
     let nodes = AtomicUsize::new(0);
-    let pyramid = lattice.pyramid(field);
+    let pyramid = lattice.pyramid(field, nt, cells_at(0).len());
     let search =
         |kt: i64| -> Vec<KeptPose> { search_in(lattice, &pyramid, cells_at, kt, &best, 0.0, None, &nodes) };
     // The prior's mean first, which finds a good bound for all the rest;
@@ -807,13 +810,34 @@ fn search_in(
 impl Lattice<'_> {
     /// The field's pooled levels as this lattice's search looks them up:
     /// from blocks as wide as the window, at most [`TOP_LEVEL`].
-    fn pyramid<'f>(&self, field: &'f LikelihoodField) -> Pyramid<'f> {
+    /// Where the top level alone reads more cells, `n` points a
+    /// rotation over `2·nt + 1` rotations, than [`WINDOW_READS_PER_CELL`]
+    /// times those it would copy, the levels are read from a window over
+    /// every rotation's cells (within the farthest point's reach of the
+    /// prior's mean) moved by every translation searched.
+    fn pyramid<'f>(&self, field: &'f LikelihoodField, nt: i64, n: usize) -> Pyramid<'f> {
         let side = (2 * self.nx.max(self.ny) + 1) as u64;
         let top = (side.next_power_of_two().trailing_zeros() as usize).min(TOP_LEVEL);
+        let levels = field.levels();
+        let step = 1i64 << top;
+        let mean = self.prior.mean;
+        let centre = (floor_i64(mean.x / self.res), floor_i64(mean.y / self.res));
+        let r = (self.far_m / self.res).ceil() as i64 + 1;
+        let lo = (centre.0 - r - self.nx, centre.1 - r - self.ny);
+        let hi = (
+            centre.0 + r + self.nx + 2 * step,
+            centre.1 + r + self.ny + 2 * step,
+        );
+        let copied = ((hi.0 - lo.0 + 1) * (hi.1 - lo.1 + 1)) as f64;
+        let pairs = |half: i64| ((2 * half + 1) as f64 / (2 * step) as f64).ceil();
+        let top_reads = (2 * nt + 1) as f64 * pairs(self.nx) * pairs(self.ny) * 4.0 * n as f64;
+        let window =
+            (top_reads >= WINDOW_READS_PER_CELL * copied).then(|| field.window(levels, top, (lo, hi)));
         Pyramid {
             field,
-            levels: field.levels(),
+            levels,
             top,
+            window,
         }
     }
 }
@@ -889,6 +913,13 @@ impl Searched<'_> {
         )
     }
 }
+
+/// A branch and bound copies the field into a window when its top level
+/// alone reads at least this many cells per cell copied: a cell copied
+/// costs about what a read through the tile table costs more than a read
+/// from the window, and the levels below read more than the top. On the
+/// laser logs, the time is the same from half to twice this.
+const WINDOW_READS_PER_CELL: f64 = 1.0;
 
 /// Rotations searched in parallel between two checks of the poses kept.
 const BATCH_ROTATIONS: usize = 64;

@@ -1,9 +1,12 @@
 //! The likelihood field of a map: how well a point explains an obstacle.
 
+mod window;
+
 use crate::floor_i64;
 use pirouette_geom::Point2;
 use pirouette_grid::OccupancyGrid;
 use std::sync::OnceLock;
+pub(crate) use window::Window;
 
 /// Per-cell log-likelihood of a profile endpoint falling there: a Gaussian
 /// in the distance to the nearest mapped obstacle point, mixed with a
@@ -1446,8 +1449,9 @@ mod tests {
     }
 
     /// The four corners' sums in one pass are the four sums taken alone,
-    /// to the bit, across tile borders and beyond the stored tiles; the
-    /// pooled bounds hold on a field with seen floor too.
+    /// to the bit, across tile borders and beyond the stored tiles, read
+    /// through the tiles or from a window copied out of them; the pooled
+    /// bounds hold on a field with seen floor too.
     #[test]
     fn corner_sums_are_the_single_sums() {
         use pirouette_geom::Pose2;
@@ -1466,6 +1470,9 @@ mod tests {
             .collect();
         let f = LikelihoodField::from_map(&pts, &grid, FREE_THRESH, 0.015, 0.2, 0.02);
         let levels = f.levels();
+        // A window over every cell read below (and one a cell short).
+        let window = f.window(levels, POOLED_LEVELS, ((-196, -196), (196, 196)));
+        let short = f.window(levels, POOLED_LEVELS, ((-196, -196), (195, 196)));
         for _ in 0..300 {
             let cells: Vec<(i64, i64)> = (0..rng.random_range(1..200))
                 .map(|_| (rng.random_range(-140..140i64), rng.random_range(-140..140i64)))
@@ -1475,13 +1482,20 @@ mod tests {
             let d = 1i64 << h.max(1);
             let corners = [(a, b), (a + d, b), (a, b + d), (a + d, b + d)];
             let four = f.cells_sum4(&cells, a, b, d);
+            assert!(window.holds(&cells, (a, a + d), (b, b + d)));
+            let copied = window.cells_sum4(&cells, a, b, d);
             for (k, &(x, y)) in corners.iter().enumerate() {
                 assert_eq!(four[k].to_bits(), f.cells_sum(&cells, x, y).to_bits());
+                assert_eq!(copied[k].to_bits(), four[k].to_bits());
             }
+            let right = cells.iter().map(|c| c.0).max().unwrap_or(0) + a + d;
+            assert_eq!(short.holds(&cells, (a, a + d), (b, b + d)), right < 196);
             if h >= 1 {
                 let four = f.pooled_sum4(levels, h, &cells, a, b, d);
+                let copied = window.pooled_sum4(&f, h, &cells, a, b, d);
                 for (k, &(x, y)) in corners.iter().enumerate() {
                     assert_eq!(four[k].to_bits(), f.pooled_sum(levels, h, &cells, x, y).to_bits());
+                    assert_eq!(copied[k].to_bits(), four[k].to_bits());
                 }
             }
         }

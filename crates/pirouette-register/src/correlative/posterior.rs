@@ -198,7 +198,7 @@ fn bounded_posterior(
         nx: lattice.nx,
         ny: lattice.ny,
     };
-    let pyramid = lattice.pyramid(field);
+    let pyramid = lattice.pyramid(field, nt, cells_at(0).len());
     let prior = lattice.prior;
     let form = GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m);
     let search = |kt: i64| -> Vec<KeptPose> {
