@@ -2,7 +2,10 @@
 //! over translation and rotation, then a local refinement below one cell,
 //! with the covariance of the pose from the spread of the search.
 
-use crate::bound::{search_rotation, Block, Excluded, GaussianTerm, Kept, Pyramid, SharedBest, TOP_LEVEL};
+use crate::bound::{
+    resume_rotation, search_rotation, Block, Excluded, GaussianTerm, Kept, Node, PriorTerm, Pyramid,
+    SharedBest, TOP_LEVEL,
+};
 use crate::field::{LikelihoodField, Neighbourhood};
 use crate::floor_i64;
 use crate::RegisterError;
@@ -394,7 +397,9 @@ pub fn register(
     let cells_at = |kt: i64| lattice.cells_at(&points, kt);
     let search = match config.search {
         Search::Exhaustive => exhaustive(field, &lattice, nt, &cells_at),
-        Search::BranchAndBound | Search::Cheaper => bounded(field, &lattice, nt, &cells_at),
+        Search::BranchAndBound | Search::Cheaper => {
+            bounded(field, &lattice, nt, &cells_at, -config.rival_gap_ln.max(0.0))
+        }
     };
     let Some(mut search) = search else {
         return Ok(fallback(field.floor() as f64, 0, 0));
@@ -681,8 +686,10 @@ type KeptPose = (i64, Kept);
 enum Scores<'f> {
     /// Every rotation's slab (the exhaustive search).
     Slabs(Vec<Vec<f32>>),
-    /// The pooled levels of the field (branch and bound).
-    Pyramid(Pyramid<'f>),
+    /// The pooled levels of the field (branch and bound), and per
+    /// rotation (from the least) the blocks and poses its search dropped
+    /// or kept within the rival's gap of the best then.
+    Pyramid(Pyramid<'f>, Vec<Vec<Node>>),
 }
 
 /// What the search for the best lattice pose found.
@@ -729,78 +736,125 @@ fn exhaustive<'f>(
 /// The best lattice pose, found by branch and bound (the `bound`
 /// module): rotations searched from the prior's mean outwards (in
 /// parallel), sharing the best score found so far; every block whose
-/// bound falls below it is dropped.
+/// bound falls below it is dropped, and kept for the rival's search
+/// where within `keep_ln` (zero or negative) of it.
 fn bounded<'f>(
     field: &'f LikelihoodField,
     lattice: &Lattice,
     nt: i64,
     cells_at: &(impl Fn(i64) -> Vec<(i64, i64)> + Sync),
+    keep_ln: f64,
 ) -> Option<Searched<'f>> {
     let best = SharedBest::new();
     let nodes = AtomicUsize::new(0);
     let pyramid = lattice.pyramid(field, nt, cells_at(0).len());
-    let search =
-        |kt: i64| -> Vec<KeptPose> { search_in(lattice, &pyramid, cells_at, kt, &best, 0.0, None, &nodes) };
+    let search = |kt: i64| -> (i64, Vec<KeptPose>, Vec<Node>) {
+        let mut pruned = Vec::new();
+        let kept = search_in(
+            lattice,
+            &pyramid,
+            &cells_at(kt),
+            kt,
+            (&best, 0.0, None),
+            &nodes,
+            Some((keep_ln, &mut pruned)),
+        );
+        (kt, kept, pruned)
+    };
+    // Every pose kept is kept for the rival's search too, as a node.
+    let mut frontier: Vec<Vec<Node>> = vec![Vec::new(); (2 * nt + 1) as usize];
+    let file = |frontier: &mut Vec<Vec<Node>>, (kt, found, mut pruned): (i64, Vec<KeptPose>, Vec<Node>)| {
+        pruned.extend(found.iter().map(|&(_, k)| (k.a, k.b, 0, k.score)));
+        frontier[(kt + nt) as usize] = pruned;
+        found
+    };
     // The prior's mean first, which finds a good bound for all the rest;
     // then outwards, a few rotations per thread at a time, dropping the
-    // poses overtaken after each batch.
-    let mut kept = search(0);
+    // poses overtaken after each batch, and the nodes left beyond reach.
+    let mut kept = file(&mut frontier, search(0));
     let order: Vec<i64> = (1..=nt).flat_map(|k| [k, -k]).collect();
     for batch in order.chunks(BATCH_ROTATIONS) {
-        kept.extend(
-            batch
-                .par_iter()
-                .flat_map_iter(|&kt| search(kt))
-                .collect::<Vec<_>>(),
-        );
+        let searched: Vec<_> = batch.par_iter().map(|&kt| search(kt)).collect();
+        for s in searched {
+            kept.extend(file(&mut frontier, s));
+        }
         let top = best.get();
         kept.retain(|(_, k)| k.score >= top);
+        for nodes in &mut frontier {
+            nodes.retain(|n| n.3 >= top + keep_ln);
+            nodes.shrink_to_fit();
+        }
     }
     // The first in lattice order among equals, as the exhaustive search.
     let &(kt, k) = kept.iter().min_by_key(|&&(kt, k)| (kt, k.b, k.a))?;
     Some(Searched {
         field,
         best: (k.score, k.a, k.b, kt),
-        scores: Scores::Pyramid(pyramid),
+        scores: Scores::Pyramid(pyramid, frontier),
         evaluated: nodes.into_inner(),
     })
 }
 
-/// One rotation's branch-and-bound search (see
-/// [`search_rotation`]): the poses found at least `margin_ln` below the
-/// best score (`best`, shared), `excluded` left out.
-#[allow(clippy::too_many_arguments)]
-fn search_in(
-    lattice: &Lattice,
-    pyramid: &Pyramid,
-    cells_at: &impl Fn(i64) -> Vec<(i64, i64)>,
-    kt: i64,
-    best: &SharedBest,
-    margin_ln: f64,
-    excluded: Option<Excluded>,
-    nodes: &AtomicUsize,
-) -> Vec<KeptPose> {
+/// The lattice's prior at rotation `kt`, as a search bounds it.
+fn rotation_prior<'l>(lattice: &'l Lattice, kt: i64) -> impl PriorTerm + 'l {
     let prior = lattice.prior;
     let theta = prior.mean.theta + kt as f64 * lattice.theta_step;
-    let term = GaussianTerm {
-        exact: |a, b| lattice.prior_at(a, b, kt),
+    GaussianTerm {
+        exact: move |a, b| lattice.prior_at(a, b, kt),
         theta_term: GaussianTerm::theta_term(theta, prior.mean.theta, prior.sigma_theta_rad),
         form: GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m),
         res: lattice.res,
-    };
+    }
+}
+
+/// One rotation's branch-and-bound search (see [`search_rotation`]) of
+/// its endpoint `cells`: the poses found at least `margin_ln` below the
+/// best score (`best`, shared), `excluded` left out; `pruned` as there.
+fn search_in(
+    lattice: &Lattice,
+    pyramid: &Pyramid,
+    cells: &[(i64, i64)],
+    kt: i64,
+    (best, margin_ln, excluded): (&SharedBest, f64, Option<Excluded>),
+    nodes: &AtomicUsize,
+    pruned: Option<(f64, &mut Vec<Node>)>,
+) -> Vec<KeptPose> {
     let block = Block {
         nx: lattice.nx,
         ny: lattice.ny,
     };
+    let prior = rotation_prior(lattice, kt);
     search_rotation(
-        pyramid,
-        &cells_at(kt),
-        &block,
-        &term,
-        best,
-        margin_ln,
-        excluded,
-        nodes,
+        pyramid, cells, &block, &prior, best, margin_ln, excluded, nodes, pruned,
+    )
+    .into_iter()
+    .map(|k| (kt, k))
+    .collect()
+}
+
+/// [`search_in`] resumed from the nodes `from` a narrower search of the
+/// rotation set aside ([`resume_rotation`]); its cells are made only
+/// where one of them may hold a pose within the margin.
+fn resume_in(
+    lattice: &Lattice,
+    pyramid: &Pyramid,
+    cells_at: &impl Fn(i64) -> Vec<(i64, i64)>,
+    kt: i64,
+    (best, margin_ln, excluded): (&SharedBest, f64, Option<Excluded>),
+    nodes: &AtomicUsize,
+    from: &[Node],
+) -> Vec<KeptPose> {
+    if from.iter().all(|n| n.3 < best.get() + margin_ln) {
+        return Vec::new();
+    }
+    let block = Block {
+        nx: lattice.nx,
+        ny: lattice.ny,
+    };
+    let prior = rotation_prior(lattice, kt);
+    let cells = cells_at(kt);
+    resume_rotation(
+        pyramid, &cells, &block, &prior, best, margin_ln, excluded, nodes, from,
     )
     .into_iter()
     .map(|k| (kt, k))
@@ -884,13 +938,22 @@ impl Searched<'_> {
                         .map(move |(score, (a, b))| (kt, Kept { a, b, score }))
                 })
                 .collect(),
-            Scores::Pyramid(pyramid) => {
+            Scores::Pyramid(pyramid, frontier) => {
                 let shared = SharedBest::at(best.0);
                 let nodes = AtomicUsize::new(0);
                 let found = (-nt..=nt)
                     .into_par_iter()
                     .flat_map_iter(|kt| {
-                        search_in(lattice, pyramid, cells_at, kt, &shared, margin, near(kt), &nodes)
+                        let from = &frontier[(kt + nt) as usize];
+                        resume_in(
+                            lattice,
+                            pyramid,
+                            cells_at,
+                            kt,
+                            (&shared, margin, near(kt)),
+                            &nodes,
+                            from,
+                        )
                     })
                     .collect();
                 self.evaluated += nodes.into_inner();

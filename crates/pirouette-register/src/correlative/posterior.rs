@@ -194,35 +194,17 @@ fn bounded_posterior(
 ) -> Found {
     let best = SharedBest::new();
     let nodes = AtomicUsize::new(0);
-    let block = Block {
-        nx: lattice.nx,
-        ny: lattice.ny,
-    };
     let pyramid = lattice.pyramid(field, nt, cells_at(0).len());
-    let prior = lattice.prior;
-    let form = GaussianTerm::form(lattice.turned, prior.sigma_forward_m, prior.sigma_left_m);
     let search = |kt: i64| -> Vec<KeptPose> {
-        let theta = prior.mean.theta + kt as f64 * lattice.theta_step;
-        let term = GaussianTerm {
-            exact: |a, b| lattice.prior_at(a, b, kt),
-            theta_term: GaussianTerm::theta_term(theta, prior.mean.theta, prior.sigma_theta_rad),
-            form,
-            res: lattice.res,
-        };
-        let cells = cells_at(kt);
-        search_rotation(
+        search_in(
+            lattice,
             &pyramid,
-            &cells,
-            &block,
-            &term,
-            &best,
-            NEGLIGIBLE_LN,
-            None,
+            &cells_at(kt),
+            kt,
+            (&best, NEGLIGIBLE_LN, None),
             &nodes,
+            None,
         )
-        .into_iter()
-        .map(|k| (kt, k))
-        .collect()
     };
     // The prior's mean first, which finds a good bound for all the rest;
     // then outwards, a few rotations per thread at a time. A pose kept
