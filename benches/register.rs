@@ -9,11 +9,18 @@
 //!   tree), which is why the search runs on the lattice.
 //! - `map_dataset`: images to map end to end (profiles, sweeps,
 //!   registration and refinement, the grid), and `build_map` alone.
+//! - `register_scan`: a laser scan of the intel log registered as the
+//!   laser mapper registers it (Laplace's covariance, the rival search),
+//!   on the map of the 30 scans before it at their recorded poses: from
+//!   the prior of a step with odometry, and from the stand of a step
+//!   without (±3σ of 0.8 m and 25°). Skipped with a message without
+//!   `PIROUETTE_SHARED`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pirouette::geom::Pose2;
+use pirouette::geom::{Point2, Pose2};
 use pirouette::grid::{GridConfig, OccupancyGrid};
-use pirouette::io::{Dataset, Motion};
+use pirouette::io::{open_laser_log, BagOptions, Dataset, LaserScan, Motion};
+use pirouette::laser::{scan_profile, step_prior, LaserConfig};
 use pirouette::mapping::build_map;
 use pirouette::pipeline::{self, PipelineConfig};
 use pirouette::register::{
@@ -21,6 +28,7 @@ use pirouette::register::{
 };
 use pirouette::vision::VisionConfig;
 use std::hint::black_box;
+use std::path::Path;
 
 struct Fixture {
     _dir: tempfile::TempDir,
@@ -153,5 +161,45 @@ fn benches(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(register_benches, benches);
+/// The scan of the intel log registered, and the scans whose map it is
+/// registered on (the laser mapper's local map).
+const SCAN: usize = 400;
+const MAP_SCANS: usize = 30;
+
+fn scan_benches(c: &mut Criterion) {
+    let Some(shared) = std::env::var_os("PIROUETTE_SHARED") else {
+        eprintln!("register_scan skipped: set PIROUETTE_SHARED to the shared folder");
+        return;
+    };
+    let log = Path::new(&shared).join("laser/intel-corrected.log");
+    let scans: Vec<LaserScan> = open_laser_log(&log, &BagOptions::default())
+        .expect("the intel log")
+        .take(SCAN + 1)
+        .collect::<Result<_, _>>()
+        .expect("its scans");
+    let config = LaserConfig::default();
+    let points_of = |s: &LaserScan| endpoints(&scan_profile(s, config.max_range_m));
+    let map: Vec<Point2> = scans[SCAN - MAP_SCANS..SCAN]
+        .iter()
+        .flat_map(|s| points_of(s).into_iter().map(|p| s.recorded.transform_point(p)))
+        .collect();
+    let r = &config.register;
+    let field = LikelihoodField::from_points(&map, config.field_resolution_m, r.sigma_m, r.epsilon);
+    let (previous, scan) = (scans[SCAN - 1].recorded, &scans[SCAN]);
+    let points = points_of(scan);
+    let step = previous.inverse() * scan.recorded;
+    let mut group = c.benchmark_group("register_scan");
+    group.throughput(Throughput::Elements(1));
+    for (name, prior) in [
+        ("intel/odometry", step_prior(&previous, Some(&step), &config)),
+        ("intel/no_odometry", step_prior(&previous, None, &config)),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| register(black_box(&field), black_box(&points), &prior, r).expect("registers"))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(register_benches, benches, scan_benches);
 criterion_main!(register_benches);
