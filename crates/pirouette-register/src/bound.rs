@@ -210,157 +210,124 @@ impl Excluded {
 /// with its bound: `(a, b, h, bound)`; at `h = 0`, one pose and its score.
 pub(crate) type Node = (i64, i64, usize, f64);
 
-/// The bound of the block of side `2ʰ` from `(a0, b0)` whose field sum
-/// is `sum`, clipped to the lattice; at `h = 0` the pose's exact score.
-fn bound_of(prior: &impl PriorTerm, block: &Block, sum: f32, a0: i64, b0: i64, h: usize) -> f64 {
-    let sum = sum as f64;
-    if h == 0 {
-        sum + prior.at(a0, b0)
-    } else {
-        let last = (1i64 << h) - 1;
-        sum + prior.at_most(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny)) + BOUND_SLACK
-    }
+/// One rotation's branch-and-bound search: the endpoint `cells` at that
+/// rotation read from `pyramid` over the translations of `block`, scored
+/// with `prior`, keeping every translation at least the best score any
+/// search sharing `best` finds plus `margin_ln` (zero or negative);
+/// translations `excluded` are neither scored nor kept; `nodes` counts
+/// the blocks and poses scored.
+pub(crate) struct RotationSearch<'a, P: PriorTerm> {
+    pub pyramid: &'a Pyramid<'a>,
+    pub cells: &'a [(i64, i64)],
+    pub block: Block,
+    pub prior: P,
+    pub best: &'a SharedBest,
+    pub margin_ln: f64,
+    pub excluded: Option<Excluded>,
+    pub nodes: &'a AtomicUsize,
 }
 
-/// Whether the block of side `2ʰ` from `(a0, b0)` lies wholly in the
-/// excluded box.
-fn left_out(excluded: Option<Excluded>, block: &Block, a0: i64, b0: i64, h: usize) -> bool {
-    let last = (1i64 << h) - 1;
-    excluded.is_some_and(|e| e.holds(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny)))
-}
-
-/// Every translation of one rotation whose score (field sum over `cells`
-/// moved by `(a, b)`, plus `prior`) is at least the best score any search
-/// sharing `best` finds, plus `margin_ln` (zero or negative), unsorted;
-/// among them surely all that reach the final best plus `margin_ln`.
-/// Translations `excluded` are neither scored nor kept. `nodes` counts
-/// the blocks and poses scored. With `pruned = (keep_ln, out)`, every
-/// block dropped whose bound was at least the best then plus `keep_ln`
-/// (below `margin_ln`) goes to `out`: with the poses kept, they cover
-/// every pose of the lattice that may score that much, from which
-/// [`resume_rotation`] searches with a wider margin.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn search_rotation(
-    pyramid: &Pyramid,
-    cells: &[(i64, i64)],
-    block: &Block,
-    prior: &impl PriorTerm,
-    best: &SharedBest,
-    margin_ln: f64,
-    excluded: Option<Excluded>,
-    nodes: &AtomicUsize,
-    pruned: Option<(f64, &mut Vec<Node>)>,
-) -> Vec<Kept> {
-    let top = pyramid.top;
-    let step = 1i64 << top;
-    let window = reading(pyramid, cells, block);
-    // The top blocks tile the lattice; the most promising is searched
-    // first.
-    let mut stack: Vec<Node> = Vec::new();
-    // Two rows of top blocks at a time, two by two in one pass over the
-    // cells; pushed row by row.
-    let mut rows: [Vec<(i64, f32)>; 2] = [Vec::new(), Vec::new()];
-    for b0 in (-block.ny..=block.ny).step_by(2 * step as usize) {
-        rows.iter_mut().for_each(Vec::clear);
-        for a0 in (-block.nx..=block.nx).step_by(2 * step as usize) {
-            let sums = pyramid.sum4(window, top, cells, a0, b0, step);
-            rows[0].extend([(a0, sums[0]), (a0 + step, sums[1])]);
-            rows[1].extend([(a0, sums[2]), (a0 + step, sums[3])]);
-        }
-        for (r, row) in rows.iter().enumerate() {
-            let b = b0 + r as i64 * step;
-            for &(a, sum) in row {
-                if a <= block.nx && b <= block.ny && !left_out(excluded, block, a, b, top) {
-                    stack.push((a, b, top, bound_of(prior, block, sum, a, b, top)));
+impl<P: PriorTerm> RotationSearch<'_, P> {
+    /// The translations kept, unsorted: among them surely all that reach
+    /// the final best plus the margin. With `pruned = (keep_ln, out)`,
+    /// every block dropped whose bound was at least the best then plus
+    /// `keep_ln` (below the margin) goes to `out`: with the poses kept,
+    /// they cover every pose that may score that much, from which
+    /// [`RotationSearch::resume`] searches with a wider margin.
+    pub(crate) fn search(&self, pruned: Option<(f64, &mut Vec<Node>)>) -> Vec<Kept> {
+        let (pyramid, block) = (self.pyramid, &self.block);
+        let top = pyramid.top;
+        let step = 1i64 << top;
+        let window = self.window();
+        // The top blocks tile the lattice; the most promising is searched
+        // first.
+        let mut stack: Vec<Node> = Vec::new();
+        // Two rows of top blocks at a time, two by two in one pass over
+        // the cells; pushed row by row.
+        let mut rows: [Vec<(i64, f32)>; 2] = [Vec::new(), Vec::new()];
+        for b0 in (-block.ny..=block.ny).step_by(2 * step as usize) {
+            rows.iter_mut().for_each(Vec::clear);
+            for a0 in (-block.nx..=block.nx).step_by(2 * step as usize) {
+                let sums = pyramid.sum4(window, top, self.cells, a0, b0, step);
+                rows[0].extend([(a0, sums[0]), (a0 + step, sums[1])]);
+                rows[1].extend([(a0, sums[2]), (a0 + step, sums[3])]);
+            }
+            for (r, row) in rows.iter().enumerate() {
+                let b = b0 + r as i64 * step;
+                for &(a, sum) in row {
+                    if a <= block.nx && b <= block.ny && !self.left_out(a, b, top) {
+                        stack.push((a, b, top, self.bound_of(sum, a, b, top)));
+                    }
                 }
             }
         }
+        self.nodes.fetch_add(stack.len(), Ordering::Relaxed);
+        self.run(window, stack, pruned)
     }
-    nodes.fetch_add(stack.len(), Ordering::Relaxed);
-    let descent = Descent {
-        pyramid,
-        window,
-        cells,
-        block,
-        best,
-        margin_ln,
-        excluded,
-    };
-    descent.run(prior, stack, nodes, pruned)
-}
 
-/// [`search_rotation`] from the blocks and poses `from` (what a search
-/// of the same rotation, cells and prior with a narrower margin dropped
-/// and kept, [`search_rotation`]'s `pruned`), without scoring them again:
-/// the same translations found, as those blocks cover every pose that
-/// may score at least the best plus `margin_ln`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn resume_rotation(
-    pyramid: &Pyramid,
-    cells: &[(i64, i64)],
-    block: &Block,
-    prior: &impl PriorTerm,
-    best: &SharedBest,
-    margin_ln: f64,
-    excluded: Option<Excluded>,
-    nodes: &AtomicUsize,
-    from: &[Node],
-) -> Vec<Kept> {
-    let floor = best.get() + margin_ln;
-    let stack: Vec<Node> = (from.iter().copied())
-        .filter(|&(a, b, h, v)| v >= floor && !left_out(excluded, block, a, b, h))
-        .collect();
-    if stack.is_empty() {
-        return Vec::new();
+    /// [`RotationSearch::search`] from the blocks and poses `from` (what
+    /// a search of the same rotation, cells and prior with a narrower
+    /// margin dropped and kept, its `pruned`), without scoring them
+    /// again: the same translations found, as those blocks cover every
+    /// pose that may score at least the best plus the margin.
+    pub(crate) fn resume(&self, from: &[Node]) -> Vec<Kept> {
+        let floor = self.best.get() + self.margin_ln;
+        let stack: Vec<Node> = (from.iter().copied())
+            .filter(|&(a, b, h, v)| v >= floor && !self.left_out(a, b, h))
+            .collect();
+        if stack.is_empty() {
+            return Vec::new();
+        }
+        self.run(self.window(), stack, None)
     }
-    let descent = Descent {
-        pyramid,
-        window: reading(pyramid, cells, block),
-        cells,
-        block,
-        best,
-        margin_ln,
-        excluded,
-    };
-    descent.run(prior, stack, nodes, None)
-}
 
-/// The pyramid's window where it holds every cell a search of `cells`
-/// over `block` reads: block origins run over `[-nx, nx + step]` (the
-/// top blocks, two by two), and a block's children lie within it.
-fn reading<'p>(pyramid: &'p Pyramid, cells: &[(i64, i64)], block: &Block) -> Option<&'p Window> {
-    let step = 1i64 << pyramid.top;
-    (pyramid.window.as_ref()).filter(|w| {
-        w.holds(
-            cells,
-            (-block.nx, block.nx + 2 * step),
-            (-block.ny, block.ny + 2 * step),
-        )
-    })
-}
+    /// The bound of the block of side `2ʰ` from `(a0, b0)` whose field
+    /// sum is `sum`, clipped to the lattice; at `h = 0` the pose's exact
+    /// score.
+    fn bound_of(&self, sum: f32, a0: i64, b0: i64, h: usize) -> f64 {
+        let (sum, block) = (sum as f64, &self.block);
+        if h == 0 {
+            sum + self.prior.at(a0, b0)
+        } else {
+            let last = (1i64 << h) - 1;
+            sum + self
+                .prior
+                .at_most(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny))
+                + BOUND_SLACK
+        }
+    }
 
-/// The depth-first part of one rotation's search.
-struct Descent<'a> {
-    pyramid: &'a Pyramid<'a>,
-    window: Option<&'a Window>,
-    cells: &'a [(i64, i64)],
-    block: &'a Block,
-    best: &'a SharedBest,
-    margin_ln: f64,
-    excluded: Option<Excluded>,
-}
+    /// Whether the block of side `2ʰ` from `(a0, b0)` lies wholly in the
+    /// excluded box.
+    fn left_out(&self, a0: i64, b0: i64, h: usize) -> bool {
+        let (last, block) = ((1i64 << h) - 1, &self.block);
+        (self.excluded).is_some_and(|e| e.holds(a0, (a0 + last).min(block.nx), b0, (b0 + last).min(block.ny)))
+    }
 
-impl Descent<'_> {
+    /// The pyramid's window where it holds every cell this search reads:
+    /// block origins run over `[-nx, nx + step]` (the top blocks, two by
+    /// two), and a block's children lie within it.
+    fn window(&self) -> Option<&Window> {
+        let (step, block) = (1i64 << self.pyramid.top, &self.block);
+        (self.pyramid.window.as_ref()).filter(|w| {
+            w.holds(
+                self.cells,
+                (-block.nx, block.nx + 2 * step),
+                (-block.ny, block.ny + 2 * step),
+            )
+        })
+    }
+
     /// Searches `stack` (any order) depth first, the most promising block
-    /// first; see [`search_rotation`].
+    /// first, reading from `window` where given; see
+    /// [`RotationSearch::search`].
     fn run(
         &self,
-        prior: &impl PriorTerm,
+        window: Option<&Window>,
         mut stack: Vec<Node>,
-        nodes: &AtomicUsize,
         mut pruned: Option<(f64, &mut Vec<Node>)>,
     ) -> Vec<Kept> {
-        let (block, best, margin_ln) = (self.block, self.best, self.margin_ln);
+        let (block, best, margin_ln) = (&self.block, self.best, self.margin_ln);
         let mut set_aside = |node: Node| {
             if let Some((keep_ln, out)) = pruned.as_mut() {
                 if node.3 >= best.get() + *keep_ln {
@@ -390,12 +357,12 @@ impl Descent<'_> {
             let half = 1i64 << (h - 1);
             children.clear();
             // The four children's sums in one pass over the cells.
-            let sums = self.pyramid.sum4(self.window, h - 1, self.cells, a0, b0, half);
+            let sums = self.pyramid.sum4(window, h - 1, self.cells, a0, b0, half);
             for ((da, db), sum) in [(0, 0), (half, 0), (0, half), (half, half)].into_iter().zip(sums) {
                 let (a, b) = (a0 + da, b0 + db);
-                if a <= block.nx && b <= block.ny && !left_out(self.excluded, block, a, b, h - 1) {
+                if a <= block.nx && b <= block.ny && !self.left_out(a, b, h - 1) {
                     scored += 1;
-                    let child = (a, b, h - 1, bound_of(prior, block, sum, a, b, h - 1));
+                    let child = (a, b, h - 1, self.bound_of(sum, a, b, h - 1));
                     if child.3 >= best.get() + margin_ln {
                         children.push(child);
                     } else {
@@ -407,7 +374,7 @@ impl Descent<'_> {
             children.sort_by(|x, y| x.3.total_cmp(&y.3));
             stack.extend_from_slice(&children);
         }
-        nodes.fetch_add(scored, Ordering::Relaxed);
+        self.nodes.fetch_add(scored, Ordering::Relaxed);
         kept
     }
 }

@@ -3,8 +3,7 @@
 //! with the covariance of the pose from the spread of the search.
 
 use crate::bound::{
-    resume_rotation, search_rotation, Block, Excluded, GaussianTerm, Kept, Node, PriorTerm, Pyramid,
-    SharedBest, TOP_LEVEL,
+    Block, Excluded, GaussianTerm, Kept, Node, PriorTerm, Pyramid, RotationSearch, SharedBest, TOP_LEVEL,
 };
 use crate::field::{LikelihoodField, Neighbourhood};
 use crate::floor_i64;
@@ -807,58 +806,65 @@ fn rotation_prior<'l>(lattice: &'l Lattice, kt: i64) -> impl PriorTerm + 'l {
     }
 }
 
-/// One rotation's branch-and-bound search (see [`search_rotation`]) of
-/// its endpoint `cells`: the poses found at least `margin_ln` below the
-/// best score (`best`, shared), `excluded` left out; `pruned` as there.
+/// One rotation's branch-and-bound search of its endpoint `cells` (see
+/// [`RotationSearch`]): the poses found at least `margin_ln` below the
+/// best score (`best`, shared), `excluded` left out.
+fn rotation<'a>(
+    lattice: &'a Lattice,
+    pyramid: &'a Pyramid,
+    cells: &'a [(i64, i64)],
+    kt: i64,
+    (best, margin_ln, excluded): (&'a SharedBest, f64, Option<Excluded>),
+    nodes: &'a AtomicUsize,
+) -> RotationSearch<'a, impl PriorTerm + 'a> {
+    RotationSearch {
+        pyramid,
+        cells,
+        block: Block {
+            nx: lattice.nx,
+            ny: lattice.ny,
+        },
+        prior: rotation_prior(lattice, kt),
+        best,
+        margin_ln,
+        excluded,
+        nodes,
+    }
+}
+
+/// [`RotationSearch::search`] of rotation `kt`, the poses with it.
 fn search_in(
     lattice: &Lattice,
     pyramid: &Pyramid,
     cells: &[(i64, i64)],
     kt: i64,
-    (best, margin_ln, excluded): (&SharedBest, f64, Option<Excluded>),
+    sharing: (&SharedBest, f64, Option<Excluded>),
     nodes: &AtomicUsize,
     pruned: Option<(f64, &mut Vec<Node>)>,
 ) -> Vec<KeptPose> {
-    let block = Block {
-        nx: lattice.nx,
-        ny: lattice.ny,
-    };
-    let prior = rotation_prior(lattice, kt);
-    search_rotation(
-        pyramid, cells, &block, &prior, best, margin_ln, excluded, nodes, pruned,
-    )
-    .into_iter()
-    .map(|k| (kt, k))
-    .collect()
+    let found = rotation(lattice, pyramid, cells, kt, sharing, nodes).search(pruned);
+    found.into_iter().map(|k| (kt, k)).collect()
 }
 
-/// [`search_in`] resumed from the nodes `from` a narrower search of the
-/// rotation set aside ([`resume_rotation`]); its cells are made only
-/// where one of them may hold a pose within the margin.
+/// [`RotationSearch::resume`] of rotation `kt` from the nodes `from` a
+/// narrower search of it set aside; its cells are made only where one of
+/// them may hold a pose within the margin.
 fn resume_in(
     lattice: &Lattice,
     pyramid: &Pyramid,
     cells_at: &impl Fn(i64) -> Vec<(i64, i64)>,
     kt: i64,
-    (best, margin_ln, excluded): (&SharedBest, f64, Option<Excluded>),
+    sharing: (&SharedBest, f64, Option<Excluded>),
     nodes: &AtomicUsize,
     from: &[Node],
 ) -> Vec<KeptPose> {
+    let (best, margin_ln, _) = sharing;
     if from.iter().all(|n| n.3 < best.get() + margin_ln) {
         return Vec::new();
     }
-    let block = Block {
-        nx: lattice.nx,
-        ny: lattice.ny,
-    };
-    let prior = rotation_prior(lattice, kt);
     let cells = cells_at(kt);
-    resume_rotation(
-        pyramid, &cells, &block, &prior, best, margin_ln, excluded, nodes, from,
-    )
-    .into_iter()
-    .map(|k| (kt, k))
-    .collect()
+    let found = rotation(lattice, pyramid, &cells, kt, sharing, nodes).resume(from);
+    found.into_iter().map(|k| (kt, k)).collect()
 }
 
 impl Lattice<'_> {
