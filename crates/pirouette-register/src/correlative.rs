@@ -987,7 +987,8 @@ impl Searched<'_> {
 /// alone reads at least this many cells per cell copied: a cell copied
 /// costs about what a read through the tile table costs more than a read
 /// from the window, and the levels below read more than the top. On the
-/// laser logs, the time is the same from half to twice this.
+/// two logs tried (intel every 3rd scan without odometry, aces with noisy
+/// odometry), the time is the same from half to twice this.
 const WINDOW_READS_PER_CELL: f64 = 1.0;
 
 /// Rotations searched in parallel between two checks of the poses kept.
