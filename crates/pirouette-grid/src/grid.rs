@@ -436,11 +436,12 @@ impl OccupancyGrid {
                 continue;
             }
             let r = rop.range_m[i] as f64;
+            let known = rop.free_reach(i) as f64;
             let (end, hit) = if r.is_finite() && r <= max_range {
                 (r, true)
             } else {
                 // Free up to the soft limit, or as far as the bin was seen.
-                (max_range.min(rop.free_reach(i) as f64), false)
+                (max_range.min(known), false)
             };
             if end <= blind_m {
                 continue;
@@ -464,7 +465,16 @@ impl OccupancyGrid {
                     mark[k] = seen;
                 }
             };
-            traverse(from, to, s, |ci, cj| visit(index((ci, cj)), Seen::Free));
+            // An obstacle seen beyond floor known only so far (a mark or a
+            // low obstacle left undecided before it): free up to there.
+            let free_to = if hit && known < end {
+                [c.x + known * dir.x, c.y + known * dir.y]
+            } else {
+                to
+            };
+            if !hit || known > blind_m {
+                traverse(from, free_to, s, |ci, cj| visit(index((ci, cj)), Seen::Free));
+            }
             if hit {
                 visit(index(end_cell), Seen::Occupied);
             }
@@ -643,6 +653,26 @@ mod tests {
             0.5,
             "short of the soft limit: still unknown"
         );
+    }
+
+    /// An obstacle beyond floor known only so far (an undecided base in
+    /// front of it): the floor up to there is free, the obstacle's cell
+    /// occupied, and the cells between left as they were.
+    #[test]
+    fn an_obstacle_beyond_floor_known_only_so_far_leaves_the_gap_unknown() {
+        let mut g = OccupancyGrid::new(GridConfig::default()).unwrap();
+        let mut rop = wall_profile(0.5);
+        rop.free_m.iter_mut().for_each(|f| *f = 0.3);
+        g.insert_profile(&Pose2::IDENTITY, &rop, 0.1);
+        assert!(g.probability_at(0.25, 0.0) < 0.45, "known floor is free");
+        assert_eq!(g.probability_at(0.4, 0.0), 0.5, "between: unknown");
+        assert!(g.probability_at(0.505, 0.0) > 0.6, "the obstacle's cell");
+        // Known floor within the blind distance: only the obstacle.
+        let mut g = OccupancyGrid::new(GridConfig::default()).unwrap();
+        rop.free_m.iter_mut().for_each(|f| *f = 0.05);
+        g.insert_profile(&Pose2::IDENTITY, &rop, 0.1);
+        assert_eq!(g.probability_at(0.25, 0.0), 0.5);
+        assert!(g.probability_at(0.505, 0.0) > 0.6);
     }
 
     #[test]

@@ -78,7 +78,9 @@ pub struct Rop {
     /// How far along each bin the floor was seen, metres: `+∞` (as built
     /// by [`Rop::empty`]) where as far as the range says; shorter where a
     /// bin with nothing in sight was seen only nearer (at the sides of a
-    /// camera's view, where only the near floor lies). Read it with
+    /// camera's view, where only the near floor lies, or up to a mark on
+    /// the floor that one view cannot tell from a low obstacle), or where
+    /// an obstacle was seen beyond such a mark. Read it with
     /// [`Rop::free_reach`].
     #[serde(default)]
     pub free_m: Vec<f32>,
