@@ -58,6 +58,12 @@ pub struct ProfileOptions {
     /// ratio of 0).
     #[arg(long, default_value_t = VisionConfig::default().line_columns)]
     line_columns: u32,
+    /// The deepest mark on the floor, metres: a base above which the floor
+    /// shows again within this depth (tape, a stain, a flat cable, or an
+    /// obstacle too low to tell from them) is left undecided, the floor
+    /// known only up to it (0 decides every base as an obstacle).
+    #[arg(long, default_value_t = VisionConfig::default().mark_depth_m)]
+    mark_depth: f32,
 }
 
 impl ProfileOptions {
@@ -80,6 +86,7 @@ impl ProfileOptions {
             faint_step_fraction: self.faint_step_fraction,
             faint_texture_ratio: self.faint_texture_ratio,
             line_columns: self.line_columns,
+            mark_depth_m: self.mark_depth,
             filter: OutlierFilter::from(self.filter),
             ..VisionConfig::default()
         };

@@ -23,6 +23,7 @@ const GRID: Rgb<u8> = Rgb([215, 215, 215]);
 const LIMIT: Rgb<u8> = Rgb([240, 160, 40]);
 const MEASURED: Rgb<u8> = Rgb([210, 30, 30]);
 const TRUTH: Rgb<u8> = Rgb([30, 150, 60]);
+const UNDECIDED: Rgb<u8> = Rgb([40, 90, 230]);
 const LABEL: Rgb<u8> = Rgb([70, 70, 70]);
 /// Font scale of the labels (a 5 × 7 font: 14 pixels tall).
 const LABEL_SCALE: u32 = 2;
@@ -197,17 +198,26 @@ pub fn floor_view(camera: &impl CameraModel, image: &RgbImage, rop: &Rop) -> Rgb
 }
 
 /// The camera image with the floor/obstacle boundary of every column drawn
-/// in red (green where the column is clear to its top floor row).
+/// in red (green where the column is clear to its top floor row), and
+/// undecided bases (a mark on the floor or a low obstacle) in blue.
 pub fn boundary_overlay(image: &RgbImage, boundaries: &[ColumnBoundary]) -> RgbImage {
     let mut img = image.clone();
+    let bottom = img.height() as f32 - 1.0;
     for (u, b) in boundaries.iter().enumerate() {
-        let (row, colour) = match *b {
-            ColumnBoundary::Obstacle { row, .. } => (row, MEASURED),
-            ColumnBoundary::Clear { top_row } => (top_row as f32, TRUTH),
-            ColumnBoundary::NoFloor => continue,
+        let mut put = |row: f32, colour: Rgb<u8>| {
+            img.put_pixel(u as u32, row.round().clamp(0.0, bottom) as u32, colour);
         };
-        let v = row.round().clamp(0.0, img.height() as f32 - 1.0) as u32;
-        img.put_pixel(u as u32, v, colour);
+        match *b {
+            ColumnBoundary::Obstacle { row, undecided, .. } => {
+                put(row, MEASURED);
+                if let Some(w) = undecided {
+                    put(w as f32, UNDECIDED);
+                }
+            }
+            ColumnBoundary::Clear { top_row } => put(top_row as f32, TRUTH),
+            ColumnBoundary::Undecided { row } => put(row as f32, UNDECIDED),
+            ColumnBoundary::NoFloor => {}
+        }
     }
     img
 }
@@ -512,6 +522,7 @@ pub fn boundary_figure(image: &RgbImage, boundaries: &[ColumnBoundary], frame: &
         &[
             (Swatch::Line(MEASURED), "obstacle's base"),
             (Swatch::Line(TRUTH), "floor clear to the top"),
+            (Swatch::Line(UNDECIDED), "undecided: a mark or a low obstacle"),
         ],
     )
 }

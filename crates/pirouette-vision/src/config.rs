@@ -85,6 +85,13 @@ pub struct VisionConfig {
     /// Share of non-floor rows needed over a candidate obstacle's expected
     /// height.
     pub run_fraction: f32,
+    /// The deepest mark on the floor, metres along the floor: where the
+    /// floor shows again above an obstacle's base within this depth (a
+    /// strip of tape, a stain, a flat cable, or an obstacle too low for one
+    /// view to tell from them), the base is undecided. The floor is known
+    /// only up to it, and the scan goes on above it. 0 turns this off:
+    /// every base is decided as an obstacle.
+    pub mark_depth_m: f32,
     /// Outlier filter over the profile's bins.
     pub filter: OutlierFilter,
 }
@@ -143,6 +150,12 @@ impl Default for VisionConfig {
     ///   of it, where a floor that brightens fast at the image's bottom and
     ///   then levels off would leave a steady trend far above the floor;
     /// - `run_fraction`: 0.75, tolerating noise inside an obstacle;
+    /// - `mark_depth_m`: 25 cm, deeper than tape, cables and most stains.
+    ///   An obstacle of height `H` at range `r`, seen from a camera at
+    ///   height `h`, hides the floor behind it out to `r·h/(h − H)` (all
+    ///   of it when `H ≥ h`), so only obstacles lower than `h·d/(r + d)`
+    ///   show the floor again within the depth `d`: a ninth of `h` at
+    ///   2 m. What one view cannot tell from a mark is left undecided;
     /// - `filter`: the robust 3-bin median.
     fn default() -> Self {
         Self {
@@ -159,6 +172,7 @@ impl Default for VisionConfig {
             adapt_rate: 0.25,
             trend_rate: 0.1,
             run_fraction: 0.75,
+            mark_depth_m: 0.25,
             filter: OutlierFilter::Median3,
         }
     }
@@ -225,6 +239,9 @@ impl VisionConfig {
             && unit(self.faint_step_fraction))
         {
             return bad("adapt rate, trend rate, run fraction, edge fraction and faint step fraction must be in (0, 1]");
+        }
+        if !(self.mark_depth_m.is_finite() && self.mark_depth_m >= 0.0) {
+            return bad("mark depth must be non-negative");
         }
         if !(self.texture_ratio >= 0.0 && self.texture_ratio < 1.0) {
             return bad("texture ratio must be in [0, 1)");

@@ -64,6 +64,9 @@ struct BoundaryPoint {
     colour: Option<ColourTag>,
     /// An obstacle's base, not the end of sight.
     obstacle: bool,
+    /// How far the floor is known: the range of an undecided base nearer
+    /// than the obstacle, `+∞` when the floor was followed all the way.
+    known_m: f32,
 }
 
 impl RopExtractor {
@@ -221,6 +224,13 @@ impl RopExtractor {
                 *free = r;
             }
         }
+        // A bin whose every column met an undecided base before its
+        // obstacle is known free only that far.
+        for (i, known) in known_reach(&rop, &points).into_iter().enumerate() {
+            if rop.range_m[i].is_finite() && known < rop.range_m[i] {
+                rop.free_m[i] = known;
+            }
+        }
         rop
     }
 
@@ -229,7 +239,11 @@ impl RopExtractor {
     fn boundary_points(&self, boundaries: &[ColumnBoundary]) -> Vec<Option<BoundaryPoint>> {
         (boundaries.iter().enumerate())
             .map(|(u, b)| match *b {
-                ColumnBoundary::Obstacle { row, colour } => {
+                ColumnBoundary::Obstacle {
+                    row,
+                    colour,
+                    undecided,
+                } => {
                     let p = self
                         .table
                         .floor_at_row(u as u32, row.min((self.height - 1) as f32))?;
@@ -238,15 +252,21 @@ impl RopExtractor {
                         range_m: p.norm() as f32,
                         colour,
                         obstacle: true,
+                        known_m: undecided
+                            .and_then(|w| self.table.floor(u as u32, w))
+                            .map_or(f32::INFINITY, |q| q.norm() as f32),
                     })
                 }
-                ColumnBoundary::Clear { top_row } => {
-                    let p = self.table.floor(u as u32, top_row)?;
+                // Seen from the column's bottom: nothing in sight, as far
+                // as the last floor row or the undecided base.
+                ColumnBoundary::Clear { top_row: row } | ColumnBoundary::Undecided { row } => {
+                    let p = self.table.floor(u as u32, row)?;
                     Some(BoundaryPoint {
                         bearing_rad: p.bearing(),
                         range_m: f32::INFINITY,
                         colour: None,
                         obstacle: false,
+                        known_m: f32::INFINITY,
                     })
                 }
                 ColumnBoundary::NoFloor => None,
@@ -278,15 +298,30 @@ impl RopExtractor {
     /// A bin with nothing in sight is free only that far.
     fn floor_reach(&self, boundaries: &[ColumnBoundary], bins: usize) -> Vec<f32> {
         let mut reach = vec![0f32; bins];
-        for (crossings, b) in self.crossings.iter().zip(boundaries) {
-            let below = match *b {
-                ColumnBoundary::Obstacle { row, .. } => row,
-                ColumnBoundary::Clear { top_row } => top_row as f32 - 1.0,
+        for (u, (crossings, b)) in self.crossings.iter().zip(boundaries).enumerate() {
+            // Floor rows below `below`; a column cut short at an undecided
+            // base is seen in the bin it is cut in only as far as that row.
+            let (below, cut) = match *b {
+                ColumnBoundary::Undecided { row } => (
+                    row as f32,
+                    self.table.floor(u as u32, row).map(|p| p.norm() as f32),
+                ),
+                ColumnBoundary::Obstacle { row, .. } => (row, None),
+                ColumnBoundary::Clear { top_row } => (top_row as f32 - 1.0, None),
                 ColumnBoundary::NoFloor => continue,
             };
-            for c in crossings.iter().filter(|c| c.top_row as f32 > below) {
+            // Bottom up: the rows above the first crossing past `below`
+            // are past it too.
+            for c in crossings {
                 let r = &mut reach[c.bin as usize];
-                *r = r.max(c.range_m);
+                if c.top_row as f32 > below {
+                    *r = r.max(c.range_m);
+                } else {
+                    if let Some(cut) = cut {
+                        *r = r.max(cut);
+                    }
+                    break;
+                }
             }
         }
         reach
@@ -299,6 +334,7 @@ impl RopExtractor {
             let first_floor = match *b {
                 ColumnBoundary::Obstacle { row, .. } => (row + 0.5).ceil().max(0.0) as u32,
                 ColumnBoundary::Clear { top_row } => top_row,
+                ColumnBoundary::Undecided { row } => row + 1,
                 ColumnBoundary::NoFloor => self.height,
             };
             for v in first_floor..self.height {
@@ -367,7 +403,7 @@ impl RopExtractor {
             scan.end_columns(v, &mut ends);
             match alive_span(&scan.lanes, cols) {
                 Some(next) if v > 0 => cols = next,
-                _ => return scan.out,
+                _ => return scan.finish(),
             }
             v -= 1;
         }
@@ -388,6 +424,22 @@ impl RopExtractor {
             chroma_step: self.config.min_chroma_step,
         }
     }
+}
+
+/// Per bin of `rop`, how far the floor is known in front of the obstacles
+/// of `points` that fall in it: the farthest of their known reaches
+/// (`+∞` where one of them was followed all the way, or none falls in it).
+fn known_reach(rop: &Rop, points: &[Option<BoundaryPoint>]) -> Vec<f32> {
+    let mut known = vec![f32::NEG_INFINITY; rop.len()];
+    for p in points.iter().flatten().filter(|p| p.obstacle) {
+        if let Some(i) = rop.bin_of(p.bearing_rad) {
+            known[i] = known[i].max(p.known_m);
+        }
+    }
+    known
+        .into_iter()
+        .map(|k| if k == f32::NEG_INFINITY { f32::INFINITY } else { k })
+        .collect()
 }
 
 /// Joins neighbouring columns that see the same surface (both obstacles,

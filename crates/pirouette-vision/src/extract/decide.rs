@@ -8,10 +8,15 @@ use super::RopExtractor;
 use crate::config::VisionConfig;
 use crate::scan::{smoothed, Candidate, Classifier, FloorTrack, SQRT_3};
 use crate::ColumnBoundary;
+use pirouette_camera::FloorTable;
 use pirouette_profile::ColourTag;
 
 /// Rows each side of a boundary used to measure floor and obstacle levels.
 const LEVEL_OFFSET: u32 = 3;
+
+/// Rows in a row that must be floor again above a base for the floor to
+/// show again there (as many as [`Cues::column_confirms`] reads).
+const RESUME_ROWS: u32 = 3;
 
 /// One image as the cues that decide obstacle bases read it: its pixels
 /// and size, the rows an obstacle of the least height spans at each
@@ -23,6 +28,8 @@ pub(super) struct Cues<'a> {
     height: u32,
     run_rows: &'a [u16],
     config: &'a VisionConfig,
+    table: &'a FloorTable,
+    top_floor: &'a [u32],
 }
 
 impl<'a> Cues<'a> {
@@ -34,7 +41,61 @@ impl<'a> Cues<'a> {
             height: ex.height,
             run_rows: &ex.run_rows,
             config: &ex.config,
+            table: &ex.table,
+            top_floor: &ex.top_floor,
         }
+    }
+
+    /// Whether the floor shows again above the base of candidate `c` in
+    /// column `u` within [`VisionConfig::mark_depth_m`] along the floor:
+    /// [`RESUME_ROWS`] rows in a row that are floor again, the first of
+    /// them no farther than the depth beyond the base. A row is floor again
+    /// when it is floor by the scan's test (`classifier`) against the floor
+    /// followed from the base's prediction (as [`Cues::edge_confirms`]
+    /// follows it) and nearer that floor's colour than the mean colour of
+    /// the rows that made it a base (the run above it): the face of an
+    /// obstacle close to the floor's colour, whose base only a sharp step
+    /// found, stays the obstacle. A base that
+    /// reaches the column's last floor row, or the depth, is decided.
+    pub(super) fn floor_resumes(&self, u: u32, c: &Candidate, classifier: &Classifier) -> bool {
+        let depth = self.config.mark_depth_m;
+        if depth <= 0.0 || c.row == 0 {
+            return false;
+        }
+        let Some(base) = self.table.floor(u, c.row) else {
+            return false;
+        };
+        let limit = base.norm() + f64::from(depth);
+        let top = self.top_floor[u as usize];
+        let (px, m) = (self.px, self.width);
+        // The colour above the base: the mean over the run an obstacle of
+        // the least height would span there, the rows that made it a base.
+        let run = self.run_rows[(c.row * m + u) as usize].max(1) as u32;
+        let Some(patch) = mean_of((c.row.saturating_sub(run).max(top)..c.row).map(|w| smoothed(px, m, u, w)))
+        else {
+            return false;
+        };
+        let mut track = FloorTrack {
+            level: c.floor,
+            trend: c.trend,
+        };
+        // The base's own row was predicted as `c.floor`: coast over it.
+        track.step(&c.floor, false, self.config.adapt_rate, self.config.trend_rate);
+        let mut run = 0u32;
+        for w in (top..c.row).rev() {
+            if run == 0 && self.table.floor(u, w).is_none_or(|p| p.norm() > limit) {
+                return false;
+            }
+            let q = smoothed(px, m, u, w);
+            let pred = track.predict();
+            let floor = classifier.is_floor(&q, &pred) && dist2(&q, &pred) < dist2(&q, &patch);
+            track.step(&q, floor, self.config.adapt_rate, self.config.trend_rate);
+            run = if floor { run + 1 } else { 0 };
+            if run == RESUME_ROWS {
+                return true;
+            }
+        }
+        false
     }
 
     /// Whether a candidate whose run has been scanned, `off` of its rows
@@ -240,6 +301,7 @@ impl<'a> Cues<'a> {
             return ColumnBoundary::Obstacle {
                 row: v as f32 + 0.5,
                 colour,
+                undecided: None,
             };
         }
         // Window rows v−2 ..= v+2; the obstacle is on top.
@@ -267,8 +329,14 @@ impl<'a> Cues<'a> {
         ColumnBoundary::Obstacle {
             row: row.clamp(lo as f32 - 0.5, hi as f32 + 0.5),
             colour,
+            undecided: None,
         }
     }
+}
+
+/// The squared distance between two colours.
+fn dist2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    (0..3).map(|c| (a[c] - b[c]) * (a[c] - b[c])).sum()
 }
 
 /// The mean of some colours, `None` when there are none.

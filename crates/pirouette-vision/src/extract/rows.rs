@@ -30,6 +30,9 @@ pub(super) struct RowScan<'a> {
     past_top: Vec<bool>,
     /// Columns whose first candidate can be decided at the current row.
     ready: Vec<usize>,
+    /// Per column: the nearest undecided base, where the floor showed
+    /// again above one: its row, and the obstacle's base it would be.
+    undecided: Vec<Option<(u32, ColumnBoundary)>>,
 }
 
 impl<'a> RowScan<'a> {
@@ -63,6 +66,7 @@ impl<'a> RowScan<'a> {
             candidates: Candidates::new(m, ex.height as usize),
             past_top: vec![false; m],
             ready: Vec::new(),
+            undecided: vec![None; m],
         }
     }
 
@@ -170,8 +174,9 @@ impl<'a> RowScan<'a> {
     }
 
     /// Decides the candidates whose runs end at row `v`, in scan order:
-    /// the first that is an obstacle ends the column; a column past its
-    /// top with none left sees nothing.
+    /// the first that is an obstacle ends the column, unless the floor
+    /// shows again above it (then it is undecided, and the scan goes on);
+    /// a column past its top with none left sees nothing.
     pub fn decide_row(&mut self, v: u32) {
         let lanes = &self.lanes;
         self.candidates
@@ -179,19 +184,37 @@ impl<'a> RowScan<'a> {
         for &u in &self.ready {
             while let Some((c, off)) = self.candidates.decidable(u) {
                 if let Some(b) = self.cues.decide(u as u32, &c, off, &self.classifier) {
-                    self.out[u] = b;
-                    self.lanes.stop(u);
-                    self.candidates.clear(u);
-                    break;
+                    if self.cues.floor_resumes(u as u32, &c, &self.classifier) {
+                        self.undecided[u].get_or_insert((c.row, b));
+                    } else {
+                        self.out[u] = match b {
+                            ColumnBoundary::Obstacle { row, colour, .. } => ColumnBoundary::Obstacle {
+                                row,
+                                colour,
+                                undecided: self.undecided[u].map(|(w, _)| w),
+                            },
+                            other => other,
+                        };
+                        self.lanes.stop(u);
+                        self.candidates.clear(u);
+                        break;
+                    }
                 }
                 self.candidates.pop(u);
             }
             if self.lanes.is_alive(u) && self.past_top[u] && self.candidates.is_empty(u) {
-                self.out[u] = ColumnBoundary::Clear {
-                    top_row: self.ex.top_floor[u],
-                };
+                self.out[u] = self.clear(u, self.ex.top_floor[u]);
                 self.lanes.stop(u);
             }
+        }
+    }
+
+    /// Column `u`, scanned to its last floor row `top_row` without an
+    /// obstacle: clear, or undecided from its nearest undecided base.
+    fn clear(&self, u: usize, top_row: u32) -> ColumnBoundary {
+        match self.undecided[u] {
+            Some((row, _)) => ColumnBoundary::Undecided { row },
+            None => ColumnBoundary::Clear { top_row },
         }
     }
 
@@ -206,12 +229,60 @@ impl<'a> RowScan<'a> {
             let u = u as usize;
             if self.lanes.is_alive(u) {
                 if self.candidates.is_empty(u) {
-                    self.out[u] = ColumnBoundary::Clear { top_row: v };
+                    self.out[u] = self.clear(u, v);
                     self.lanes.stop(u);
                 } else {
                     self.past_top[u] = true;
                 }
             }
+        }
+    }
+
+    /// The boundaries, undecided bases that continue an obstacle's base
+    /// line decided ([`settle`]).
+    pub fn finish(mut self) -> Vec<ColumnBoundary> {
+        let bases: Vec<Option<ColumnBoundary>> = self.undecided.iter().map(|b| b.map(|(_, b)| b)).collect();
+        settle(&mut self.out, &bases);
+        self.out
+    }
+}
+
+/// Columns either side of an undecided base in which [`settle`] looks for a
+/// decided base on the same line: past the three-pixel smoothing.
+const LINE_COLUMNS: usize = 2;
+
+/// How far, rows per column apart, two columns' bases may lie and still
+/// be on one line.
+const LINE_ROWS_PER_COLUMN: f32 = 1.5;
+
+/// Decides the undecided bases (`bases`, per column the nearest, as the
+/// obstacle's base it would be) that continue the line of an obstacle's
+/// base decided within [`LINE_COLUMNS`] columns (as `out` holds them):
+/// where a column grazes an obstacle's side, the floor beside it shows
+/// above its base, but the columns that cross the obstacle show that the
+/// base is an obstacle's. A mark on the floor ends no decided base's
+/// line.
+pub(super) fn settle(out: &mut [ColumnBoundary], bases: &[Option<ColumnBoundary>]) {
+    let decided: Vec<Option<f32>> = (out.iter())
+        .map(|b| match *b {
+            ColumnBoundary::Obstacle {
+                row, undecided: None, ..
+            } => Some(row),
+            _ => None,
+        })
+        .collect();
+    let n = out.len();
+    for (u, base) in bases.iter().enumerate() {
+        let Some(base @ ColumnBoundary::Obstacle { row, .. }) = *base else {
+            continue;
+        };
+        let on_line = (u.saturating_sub(LINE_COLUMNS)..(u + LINE_COLUMNS + 1).min(n))
+            .filter(|&k| k != u)
+            .any(|k| {
+                decided[k].is_some_and(|r| (r - row).abs() <= LINE_ROWS_PER_COLUMN * k.abs_diff(u) as f32)
+            });
+        if on_line {
+            out[u] = base;
         }
     }
 }

@@ -33,6 +33,7 @@ fn wall_image(edge: f32) -> image::RgbImage {
 }
 
 mod lock_step;
+mod marks;
 
 /// Of the columns of `img` scanned with `config`: those whose boundary
 /// lies within `tolerance` rows of `row`, and those that see no

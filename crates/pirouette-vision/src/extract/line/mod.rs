@@ -359,9 +359,14 @@ struct Searched {
 
 /// Where the line cue searches column `u`, whose scan gave `b`: below the
 /// base found, or below the last floor row. Columns whose scan found a base
-/// within the soft range limit are not searched.
+/// within the soft range limit, or an undecided one, are not searched.
 fn searched(ex: &RopExtractor, u: usize, b: &ColumnBoundary) -> Option<Searched> {
     match *b {
+        // Below an undecided base the floor is not known to be clear.
+        ColumnBoundary::Obstacle {
+            undecided: Some(_), ..
+        }
+        | ColumnBoundary::Undecided { .. } => None,
         ColumnBoundary::Obstacle { row, .. } => {
             let p = ex.table.floor_at_row(u as u32, row.min((ex.height - 1) as f32))?;
             // Two rows clear of the base found.
@@ -389,6 +394,7 @@ fn base_at(px: &[u8], width: u32, u: u32, v: u32) -> ColumnBoundary {
     ColumnBoundary::Obstacle {
         row: v as f32 - 0.5,
         colour,
+        undecided: None,
     }
 }
 

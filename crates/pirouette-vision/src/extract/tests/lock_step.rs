@@ -1,12 +1,37 @@
 //! The lock-step scan against scanning each column on its own.
 
 use super::*;
+use crate::scan::Candidate;
 
 /// The oracle for the lock-step scan: each column scanned on its own,
 /// every candidate decided on the spot by following the floor over its
 /// run (the plain form of what the lock-step scan does with deferred
 /// candidates).
-fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[Seed]) -> ColumnBoundary {
+///
+/// Returns the boundary and the nearest undecided base as the obstacle's
+/// base it would be, for [`settle`](super::super::rows::settle).
+fn column_by_column(
+    ex: &RopExtractor,
+    px: &[u8],
+    u: u32,
+    sigma: f32,
+    seeds: &[Seed],
+) -> (ColumnBoundary, Option<ColumnBoundary>) {
+    let mut first: Option<ColumnBoundary> = None;
+    let b = column_alone(ex, px, u, sigma, seeds, &mut first);
+    (b, first)
+}
+
+/// [`column_by_column`]'s boundary; `first` takes the nearest undecided
+/// base.
+fn column_alone(
+    ex: &RopExtractor,
+    px: &[u8],
+    u: u32,
+    sigma: f32,
+    seeds: &[Seed],
+    first: &mut Option<ColumnBoundary>,
+) -> ColumnBoundary {
     let (m, n) = (ex.width, ex.height);
     let top = ex.top_floor[u as usize];
     if top >= n {
@@ -28,6 +53,34 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
     let grey_sigma = grey_noise_sigma(px, m, n, Median::Plain);
     let mut track = FloorTrack { level, trend };
     let (mut close_below, mut steady_below, mut faint_below) = (true, true, true);
+    // The nearest undecided base so far.
+    let mut undecided: Option<u32> = None;
+    // A base at row `v`: the obstacle, unless the floor shows again above
+    // it (then undecided, and the scan goes on).
+    let mut base = |v: u32, pred: [f32; 3], trend: [f32; 3], lo: u32, edge: bool| {
+        let c = Candidate {
+            row: v,
+            lo,
+            off_before: 0,
+            floor: pred,
+            trend,
+            edge,
+        };
+        let b = ex.cues(px).refine(u, v, pred, trend);
+        if ex.cues(px).floor_resumes(u, &c, &classifier) {
+            undecided.get_or_insert(v);
+            first.get_or_insert(b);
+            return None;
+        }
+        match b {
+            ColumnBoundary::Obstacle { row, colour, .. } => Some(ColumnBoundary::Obstacle {
+                row,
+                colour,
+                undecided,
+            }),
+            other => Some(other),
+        }
+    };
     let mut v = n - seed_rows - 1;
     loop {
         let p = pix(v);
@@ -52,13 +105,17 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
             if off as f32 >= ex.config.run_fraction * (v - lo + 1) as f32
                 && ex.cues(px).column_confirms(u, v, &pred, &classifier)
             {
-                return ex.cues(px).refine(u, v, pred, track.trend);
+                if let Some(b) = base(v, pred, track.trend, lo, false) {
+                    return b;
+                }
             }
         } else if !close && close_below {
             let mut coasted = track;
             coasted.step(&p, false, rate, trend_rate);
             if ex.cues(px).edge_confirms(u, v, coasted, &edge) {
-                return ex.cues(px).refine(u, v, pred, track.trend);
+                if let Some(b) = base(v, pred, track.trend, v, true) {
+                    return b;
+                }
             }
         } else if (close
             && !steady
@@ -83,14 +140,19 @@ fn column_by_column(ex: &RopExtractor, px: &[u8], u: u32, sigma: f32, seeds: &[S
                     (&pred, &classifier),
                 ))
         {
-            return ex.cues(px).refine(u, v, pred, track.trend);
+            if let Some(b) = base(v, pred, track.trend, v, true) {
+                return b;
+            }
         }
         track.step(&p, floor, rate, trend_rate);
         close_below = close;
         steady_below = steady;
         faint_below = faint_steady;
         if v == top {
-            return ColumnBoundary::Clear { top_row: top };
+            return match undecided {
+                Some(row) => ColumnBoundary::Undecided { row },
+                None => ColumnBoundary::Clear { top_row: top },
+            };
         }
         v -= 1;
     }
@@ -185,10 +247,13 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
                     &ex.top_floor,
                     &ex.classifier(sigma),
                 );
-                for (u, found) in lock_step.iter().enumerate() {
+                let (mut oracle, bases): (Vec<_>, Vec<_>) = (0..width)
+                    .map(|u| column_by_column(ex, px, u, sigma, &seeds))
+                    .unzip();
+                super::super::rows::settle(&mut oracle, &bases);
+                for (u, (found, expected)) in lock_step.iter().zip(&oracle).enumerate() {
                     assert_eq!(
-                        *found,
-                        column_by_column(ex, px, u as u32, sigma, &seeds),
+                        found, expected,
                         "width {width} column {u}, texture ratio {}",
                         ex.config.texture_ratio
                     );
