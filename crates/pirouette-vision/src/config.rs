@@ -150,12 +150,15 @@ impl Default for VisionConfig {
     ///   of it, where a floor that brightens fast at the image's bottom and
     ///   then levels off would leave a steady trend far above the floor;
     /// - `run_fraction`: 0.75, tolerating noise inside an obstacle;
-    /// - `mark_depth_m`: 25 cm, deeper than tape, cables and most stains.
-    ///   An obstacle of height `H` at range `r`, seen from a camera at
-    ///   height `h`, hides the floor behind it out to `r·h/(h − H)` (all
-    ///   of it when `H ≥ h`), so only obstacles lower than `h·d/(r + d)`
-    ///   show the floor again within the depth `d`: a ninth of `h` at
-    ///   2 m. What one view cannot tell from a mark is left undecided;
+    /// - `mark_depth_m`: 0, off. At 25 cm (deeper than tape, cables and
+    ///   most stains) the scoreboard's renders lost as much as they
+    ///   gained: fewer free bins given a range, but a lower map F1 on some
+    ///   rooms and larger heading errors of some place answers
+    ///   (`BENCHMARKS.md`). An obstacle of height `H` at range `r`, seen
+    ///   from a camera at height `h`, hides the floor behind it out to
+    ///   `r·h/(h − H)` (all of it when `H ≥ h`), so only obstacles lower
+    ///   than `h·d/(r + d)` show the floor again within the depth `d`: a
+    ///   ninth of `h` at 2 m for 25 cm;
     /// - `filter`: the robust 3-bin median.
     fn default() -> Self {
         Self {
@@ -172,7 +175,7 @@ impl Default for VisionConfig {
             adapt_rate: 0.25,
             trend_rate: 0.1,
             run_fraction: 0.75,
-            mark_depth_m: 0.25,
+            mark_depth_m: 0.0,
             filter: OutlierFilter::Median3,
         }
     }

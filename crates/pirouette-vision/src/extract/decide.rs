@@ -14,8 +14,8 @@ use pirouette_profile::ColourTag;
 /// Rows each side of a boundary used to measure floor and obstacle levels.
 const LEVEL_OFFSET: u32 = 3;
 
-/// Rows in a row that must be floor again above a base for the floor to
-/// show again there (as many as [`Cues::column_confirms`] reads).
+/// Consecutive rows that must be floor again above a base for the floor
+/// to show again there (as many as [`Cues::column_confirms`] reads).
 const RESUME_ROWS: u32 = 3;
 
 /// One image as the cues that decide obstacle bases read it: its pixels
@@ -48,15 +48,15 @@ impl<'a> Cues<'a> {
 
     /// Whether the floor shows again above the base of candidate `c` in
     /// column `u` within [`VisionConfig::mark_depth_m`] along the floor:
-    /// [`RESUME_ROWS`] rows in a row that are floor again, the first of
+    /// [`RESUME_ROWS`] consecutive rows that are floor again, the first of
     /// them no farther than the depth beyond the base. A row is floor again
     /// when it is floor by the scan's test (`classifier`) against the floor
     /// followed from the base's prediction (as [`Cues::edge_confirms`]
     /// follows it) and nearer that floor's colour than the mean colour of
     /// the rows that made it a base (the run above it): the face of an
     /// obstacle close to the floor's colour, whose base only a sharp step
-    /// found, stays the obstacle. A base that
-    /// reaches the column's last floor row, or the depth, is decided.
+    /// found, stays the obstacle. A base whose floor does not show again
+    /// before the column's last floor row, or the depth, is decided.
     pub(super) fn floor_resumes(&self, u: u32, c: &Candidate, classifier: &Classifier) -> bool {
         let depth = self.config.mark_depth_m;
         if depth <= 0.0 || c.row == 0 {

@@ -169,6 +169,7 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut rand = move || rng.random::<f32>();
     let mut compared = 0;
+    let mut undecided = 0;
     let mut texture_found = 0;
     let mut faint_found = 0;
     for width in [320u32, 75] {
@@ -192,6 +193,14 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
             VisionConfig::default()
                 .for_matching()
                 .expect("the cue is on by default"),
+        );
+        let marked = RopExtractor::new(
+            &c,
+            0.9,
+            VisionConfig {
+                mark_depth_m: 0.25,
+                ..VisionConfig::default()
+            },
         );
         for _ in 0..4 {
             // Obstacles: (first column, last column, base row, colour);
@@ -239,7 +248,7 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
             let sigma = noise_sigma(px, width, 240);
             let without = plain.boundaries(&img).unwrap();
             let strong_only = no_faint.boundaries(&img).unwrap();
-            for ex in [&plain, &no_faint, &textured] {
+            for ex in [&plain, &no_faint, &textured, &marked] {
                 let lock_step = ex.boundaries(&img).unwrap();
                 let seeds = super::super::seed::seeds(
                     px,
@@ -262,6 +271,18 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
                     .iter()
                     .filter(|b| matches!(b, ColumnBoundary::Obstacle { .. }))
                     .count();
+                undecided += (lock_step.iter())
+                    .filter(|b| {
+                        matches!(
+                            b,
+                            ColumnBoundary::Undecided { .. }
+                                | ColumnBoundary::Obstacle {
+                                    undecided: Some(_),
+                                    ..
+                                }
+                        )
+                    })
+                    .count();
             }
             let with = textured.boundaries(&img).unwrap();
             texture_found += with.iter().zip(&without).filter(|(a, b)| a != b).count();
@@ -269,6 +290,7 @@ fn lock_step_scan_equals_the_column_by_column_oracle() {
         }
     }
     assert!(compared > 1000, "only {compared} obstacle columns compared");
+    assert!(undecided > 20, "only {undecided} columns with an undecided base");
     assert!(
         texture_found > 50,
         "the texture cue changed only {texture_found} columns"
