@@ -51,6 +51,16 @@ fn middle(b: &[ColumnBoundary]) -> &[ColumnBoundary] {
     &b[80..240]
 }
 
+/// Of the middle half of the columns, those decided as an obstacle whose
+/// base lies within 1.5 rows of `base`, the floor followed all the way.
+fn decided_at(b: &[ColumnBoundary], base: u32) -> usize {
+    (middle(b).iter())
+        .filter(|c| {
+            matches!(c, ColumnBoundary::Obstacle { row, undecided: None, .. } if (row - base as f32).abs() <= 1.5)
+        })
+        .count()
+}
+
 /// A strip of tape 15 cm deep across the floor at 0.45 m (taller in the
 /// image than a 2 cm obstacle there): the floor shows
 /// again above it, so every column is undecided at the strip's nearest
@@ -85,11 +95,7 @@ fn a_strip_of_tape_is_undecided_not_an_obstacle() {
     );
 
     let b = extractor(0.0).boundaries(&img).unwrap();
-    let obstacles = middle(&b)
-        .iter()
-        .filter(|c| matches!(c, ColumnBoundary::Obstacle { row, undecided: None, .. } if (row - base as f32).abs() <= 1.5))
-        .count();
-    assert_eq!(obstacles, 160);
+    assert_eq!(decided_at(&b, base), 160);
 }
 
 /// The strip, then a wall at 0.75 m: the wall is the obstacle, the floor
@@ -132,11 +138,7 @@ fn a_strip_deeper_than_the_mark_depth_is_an_obstacle() {
     let img = floor_image(&ex, (0.45, 0.75), None);
     let base = row_at(&ex, 0.45);
     let b = ex.boundaries(&img).unwrap();
-    let obstacles = middle(&b)
-        .iter()
-        .filter(|c| matches!(c, ColumnBoundary::Obstacle { row, undecided: None, .. } if (row - base as f32).abs() <= 1.5))
-        .count();
-    assert_eq!(obstacles, 160);
+    assert_eq!(decided_at(&b, base), 160);
 }
 
 /// An undecided base within two columns of a decided base on its line
